@@ -1,0 +1,49 @@
+# `make demo` and `make test` bootstrap everything they need on a fresh machine.
+SHELL := /bin/bash
+PYTHON ?= python3
+VENV ?= .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed-stamp
+# System packages the tests and the demo need (Debian names).
+SYSPKGS := umockdev gir1.2-umockdev-1.0 python3-gi chromium nodejs
+PYTEST_ARGS ?=
+
+.PHONY: test demo sysdeps venv lint typecheck pytest bench node-deps clean
+
+test: sysdeps venv node-deps lint typecheck pytest
+
+demo: sysdeps venv
+	$(BIN)/stiction demo
+
+sysdeps:
+	@bash scripts/ensure-sysdeps.sh $(SYSPKGS)
+
+venv: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install -q --upgrade pip
+	$(BIN)/python -m pip install -q -e '.[test]'
+	touch $@
+
+node-deps:
+	@if [ -f clients/examples/node/package.json ]; then \
+	  cd clients/examples/node && { [ -d node_modules ] || npm ci --no-audit --no-fund --loglevel=error; }; \
+	fi
+
+lint: venv
+	$(BIN)/ruff check src tests bench
+	$(BIN)/ruff format --check src tests bench
+
+typecheck: venv
+	$(BIN)/mypy
+
+pytest: venv
+	$(BIN)/python -m pytest $(PYTEST_ARGS)
+
+# Benchmarks are not part of `make test`: they measure, tests assert.
+bench: venv
+	$(BIN)/stiction bench all
+
+clean:
+	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .hypothesis

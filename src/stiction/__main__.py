@@ -1,0 +1,3 @@
+from stiction.cli import main
+
+raise SystemExit(main())

@@ -1,0 +1,46 @@
+"""`stiction devices`: every tablet and touchpad this machine shows, from every backend."""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+from dataclasses import asdict
+from typing import Any
+
+from stiction.drivers.info import DeviceInfo
+
+# Each backend module offers ``discover() -> list[DeviceInfo]``.
+BACKENDS = ("stiction.drivers.hid", "stiction.drivers.evdev")
+
+
+def discover_all() -> list[DeviceInfo]:
+    found: list[DeviceInfo] = []
+    for name in BACKENDS:
+        module = importlib.import_module(name)
+        discover = getattr(module, "discover", None)
+        if discover is not None:
+            found.extend(discover())
+    return found
+
+
+def _devices(args: argparse.Namespace) -> int:
+    found = discover_all()
+    if args.json:
+        for info in found:
+            print(json.dumps({**asdict(info), "vid_pid": info.vid_pid}))
+        return 0
+    if not found:
+        print("no tablets or touchpads found", file=sys.stderr)
+        return 0
+    for info in found:
+        status = "ok" if info.problem is None else info.problem
+        print(f"{info.path}\t{info.vid_pid}\t{info.kind}\t{info.backend}\t{info.name}\t{status}")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction[Any]) -> None:
+    p = sub.add_parser("devices", help="list the tablets and touchpads found")
+    p.add_argument("--json", action="store_true", help="one JSON object per device")
+    p.set_defaults(func=_devices)

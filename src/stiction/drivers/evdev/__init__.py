@@ -1,0 +1,1 @@
+"""evdev package of stiction."""

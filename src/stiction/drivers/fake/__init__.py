@@ -1,0 +1,1 @@
+"""fake package of stiction."""

@@ -1,0 +1,1 @@
+"""hid package of stiction."""

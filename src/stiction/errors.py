@@ -1,0 +1,36 @@
+"""The one exception family for mistakes a user can make.
+
+Anything that is the user's (or a device's) fault -- a bad parameter, a
+malformed descriptor, a scene file with a typo -- raises a subclass of
+`StictionError`. Command-line entry points catch exactly this family and print
+its message without a traceback; anything else escaping is a bug in stiction
+and is allowed to show its traceback.
+"""
+
+
+class StictionError(Exception):
+    """A problem with input, configuration or a device, explained in words."""
+
+
+class ParamError(StictionError, ValueError):
+    """A model parameter or integrator setting that cannot be used."""
+
+
+class DeviceError(StictionError):
+    """A device that cannot be opened, read or understood."""
+
+
+class DescriptorError(DeviceError):
+    """A HID report descriptor that cannot be parsed."""
+
+
+class RecordingError(StictionError):
+    """A recording file (hid-recorder, evemu, libinput record, trace CSV) that is malformed."""
+
+
+class SceneError(StictionError):
+    """A scene file that is malformed; the message names file, line and field."""
+
+
+class ProtocolError(StictionError):
+    """A wire message that does not follow docs/protocol.md."""

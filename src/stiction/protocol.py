@@ -1,0 +1,215 @@
+"""The wire schema, in one place: imported by the daemon and by every client.
+
+Everything a process on the other end of a socket may see is defined here:
+topics, the frame map, control requests and replies, and the version rule.
+docs/protocol.md is the prose form of this module; change both together.
+
+Messages are msgpack maps (string keys, floats as float64, vectors as
+2-element arrays). Published messages are ZeroMQ multipart ``[topic, payload]``
+so a subscriber can filter on the topic prefix without decoding anything.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any, Literal, NotRequired, TypedDict, cast
+
+import msgpack
+
+from stiction.errors import ProtocolError
+
+SCHEMA_VERSION = 1
+"""Bumped only for changes that would make an old client misread a frame.
+Adding keys is not such a change; clients ignore keys they do not know."""
+
+DEFAULT_PUB = "tcp://127.0.0.1:5556"
+DEFAULT_CONTROL = "tcp://127.0.0.1:5557"
+
+TOPIC_FRAME = b"frame."
+"""Frame topics are ``frame.<device>``: subscribe to ``frame.`` for all devices."""
+TOPIC_SCENE = b"scene"
+"""Published whenever the active scene changes (and on start)."""
+
+MAX_MESSAGE_BYTES = 1 << 20
+"""Larger payloads are refused before decoding: a frame is a few hundred bytes."""
+
+Phase = Literal["stick", "slip", "hover", "up"]
+PHASES: tuple[Phase, ...] = ("stick", "slip", "hover", "up")
+
+
+class StringWire(TypedDict):
+    length_px: float
+    dir: list[float]
+
+
+class ContactWire(TypedDict):
+    id: int
+    phase: Phase
+    touch_m: list[float]
+    pointer_m: list[float]
+    touch_px: list[float]
+    pointer_px: list[float]
+    tension: float
+    material: str
+    string: NotRequired[StringWire]
+
+
+class FrameWire(TypedDict):
+    v: int
+    kind: Literal["frame"]
+    tick: int
+    t: float
+    t_input: float | None
+    device: str
+    contacts: list[ContactWire]
+
+
+def frame_topic(device: str) -> bytes:
+    """The topic of a device's frames; device names are UTF-8."""
+    return TOPIC_FRAME + device.encode("utf-8")
+
+
+def encode(message: Mapping[str, Any]) -> bytes:
+    """Pack one message; a value msgpack cannot carry is a programming error
+    in the sender, reported as ProtocolError so a daemon can log and go on."""
+    try:
+        return cast(bytes, msgpack.packb(message, use_bin_type=True))
+    except (TypeError, ValueError, OverflowError) as exc:
+        raise ProtocolError(f"cannot encode message: {exc}") from exc
+
+
+def decode(payload: bytes) -> dict[str, Any]:
+    """Unpack one message into a map, refusing anything that is not one."""
+    if len(payload) > MAX_MESSAGE_BYTES:
+        raise ProtocolError(f"message of {len(payload)} bytes exceeds {MAX_MESSAGE_BYTES}")
+    try:
+        obj = msgpack.unpackb(payload, raw=False, strict_map_key=True)
+    except Exception as exc:  # msgpack raises several unrelated types for garbage
+        raise ProtocolError(f"not a msgpack message: {exc}") from exc
+    if not isinstance(obj, dict):
+        raise ProtocolError(f"message is a {type(obj).__name__}, expected a map")
+    return obj
+
+
+def check_version(message: Mapping[str, Any]) -> None:
+    """Reject a message from a newer schema rather than misread it."""
+    v = message.get("v")
+    if not isinstance(v, int) or isinstance(v, bool):
+        raise ProtocolError("message has no integer schema version 'v'")
+    if v > SCHEMA_VERSION:
+        raise ProtocolError(
+            f"message uses schema version {v}, newer than this client's {SCHEMA_VERSION}; "
+            "upgrade stiction to read it"
+        )
+    if v < 1:
+        raise ProtocolError(f"invalid schema version {v}")
+
+
+def _vec(value: Any, where: str) -> list[float]:
+    if (
+        not isinstance(value, list)
+        or len(value) != 2
+        or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value)
+    ):
+        raise ProtocolError(f"{where} must be a list of two numbers")
+    return [float(value[0]), float(value[1])]
+
+
+def _num(value: Any, where: str) -> float:
+    if not isinstance(value, (int, float)) or isinstance(value, bool) or not math.isfinite(value):
+        raise ProtocolError(f"{where} must be a finite number")
+    return float(value)
+
+
+def validate_frame(message: Mapping[str, Any]) -> FrameWire:
+    """Check a decoded map against the frame shape; extra keys are kept."""
+    check_version(message)
+    if message.get("kind") != "frame":
+        raise ProtocolError(f"expected kind 'frame', got {message.get('kind')!r}")
+    tick = message.get("tick")
+    if not isinstance(tick, int) or isinstance(tick, bool):
+        raise ProtocolError("frame 'tick' must be an integer")
+    _num(message.get("t"), "frame 't'")
+    if message.get("t_input") is not None:
+        _num(message.get("t_input"), "frame 't_input'")
+    if not isinstance(message.get("device"), str):
+        raise ProtocolError("frame 'device' must be a string")
+    contacts = message.get("contacts")
+    if not isinstance(contacts, list):
+        raise ProtocolError("frame 'contacts' must be a list")
+    for i, c in enumerate(contacts):
+        where = f"contacts[{i}]"
+        if not isinstance(c, dict):
+            raise ProtocolError(f"{where} must be a map")
+        if not isinstance(c.get("id"), int):
+            raise ProtocolError(f"{where}.id must be an integer")
+        if c.get("phase") not in PHASES:
+            raise ProtocolError(f"{where}.phase must be one of {', '.join(PHASES)}")
+        for key in ("touch_m", "pointer_m", "touch_px", "pointer_px"):
+            _vec(c.get(key), f"{where}.{key}")
+        _num(c.get("tension"), f"{where}.tension")
+        if not isinstance(c.get("material"), str):
+            raise ProtocolError(f"{where}.material must be a string")
+        if "string" in c:
+            s = c["string"]
+            if not isinstance(s, dict):
+                raise ProtocolError(f"{where}.string must be a map")
+            _num(s.get("length_px"), f"{where}.string.length_px")
+            _vec(s.get("dir"), f"{where}.string.dir")
+    return cast(FrameWire, message)
+
+
+def decode_frame(payload: bytes) -> FrameWire:
+    """Decode and validate one frame payload (the last part of a published message)."""
+    return validate_frame(decode(payload))
+
+
+# --- control endpoint (REQ/REP) -------------------------------------------------
+
+ControlOp = Literal[
+    "ping", "get_scene", "set_scene", "get_params", "set_params", "devices", "stats", "snapshot"
+]
+CONTROL_OPS: tuple[ControlOp, ...] = (
+    "ping",
+    "get_scene",
+    "set_scene",
+    "get_params",
+    "set_params",
+    "devices",
+    "stats",
+    "snapshot",
+)
+
+
+def make_request(op: ControlOp, **args: Any) -> bytes:
+    """A control request: ``{"v": 1, "op": op, ...args}``."""
+    return encode({"v": SCHEMA_VERSION, "op": op, **args})
+
+
+def parse_request(payload: bytes) -> tuple[ControlOp, dict[str, Any]]:
+    """Split a request into its op and arguments; raise ProtocolError for anything else."""
+    msg = decode(payload)
+    check_version(msg)
+    op = msg.pop("op", None)
+    msg.pop("v", None)
+    if op not in CONTROL_OPS:
+        raise ProtocolError(f"unknown op {op!r}; known: {', '.join(CONTROL_OPS)}")
+    return cast(ControlOp, op), msg
+
+
+def ok_reply(**data: Any) -> bytes:
+    return encode({"v": SCHEMA_VERSION, "ok": True, **data})
+
+
+def error_reply(message: str) -> bytes:
+    return encode({"v": SCHEMA_VERSION, "ok": False, "error": message})
+
+
+def parse_reply(payload: bytes) -> dict[str, Any]:
+    """Decode a reply; a reply with ``ok: false`` raises ProtocolError with its error text."""
+    msg = decode(payload)
+    check_version(msg)
+    if msg.get("ok") is not True:
+        raise ProtocolError(str(msg.get("error", "request failed without an error message")))
+    return msg

@@ -1,0 +1,1 @@
+"""scene package of stiction."""

@@ -1,0 +1,38 @@
+"""The stick-slip model of docs (shared design model.md): parameters, integrators, batch stepping.
+
+CONTRACT (other packages code against this; keep it stable, extend it freely):
+
+``Params`` -- frozen, validated dataclass. Fields k=0.1 N/m, m=1e-4 kg,
+g=9.8 m/s^2, mu_s=0.7, mu_k=0.1, C_l=2000 px/sqrt(N), rate=100 Hz; derived
+properties ``c`` (critical damping 2*sqrt(m*k)), ``dt`` (1/rate), ``F_s``
+(mu_s*m*g) and ``F_k`` (mu_k*m*g). A zero, negative, NaN or infinite value
+raises ``stiction.errors.ParamError`` naming the parameter (mu_s and mu_k may be
+0). ``Params.replace(**changes)`` and ``Params.from_mapping(dict)`` validate too.
+
+``Touch(t, x, y, tip=True, pressure=None)`` -- a NamedTuple input sample. Any
+object with attributes ``t, x, y, tip`` (and optionally ``pressure``,
+``in_range``) is accepted, so ``stiction.drivers.PenSample`` can be passed
+directly.
+
+``ContactState`` -- frozen dataclass: ``t, touch_x, touch_y, pointer_x,
+pointer_y, vx, vy, phase`` ("stick" | "slip" | "hover" | "up"), ``tension``
+(N), ``string_px`` (0.0 when the string is off), ``string_dir`` ((dx, dy) unit
+vector from pointer toward touch, (0.0, 0.0) when undefined).
+
+``ContactSim(params, integrator="default", substeps=1, events=None, string=True)``
+-- one contact. ``advance(t, samples, *, params=None, load_gain=1.0) ->
+ContactState`` takes every input sample with previous_tick < sample.t <= t, in
+order, follows the piecewise-linear touch path they define (model.md "Input
+path"), handles touch-down / touch-up / hover inside the tick, and returns the
+state at tick time ``t``. ``params`` switches the material from this tick on;
+``load_gain`` scales the normal load N = m*g*load_gain (pressure_load effect).
+Non-finite or out-of-order samples are dropped without touching the state and
+counted in ``rejected_samples``. ``state`` is the last returned ContactState.
+
+``BatchSim`` -- many independent contacts stepped together with numpy, equal
+to ContactSim to 1e-12 m.
+
+``INTEGRATORS`` -- the names accepted: "explicit-euler", "semi-implicit-euler",
+"rk4", "implicit-projection", "exact", and "default" (an alias chosen in
+docs/accuracy.md). ``DEFAULT_INTEGRATOR`` is the name "default" resolves to.
+"""

@@ -1,0 +1,42 @@
+"""Shared test set-up.
+
+Hypothesis runs derandomized so that `make test` is deterministic: the same
+examples every run. Set HYPOTHESIS_PROFILE=explore for a random, longer search.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import pytest
+from hypothesis import HealthCheck, settings
+
+settings.register_profile(
+    "ci",
+    derandomize=True,
+    deadline=None,
+    max_examples=200,
+    suppress_health_check=[HealthCheck.too_slow],
+)
+settings.register_profile("explore", deadline=None, max_examples=5000)
+settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "ci"))
+
+REPO = Path(__file__).resolve().parents[1]
+SHARED = REPO.parent / "shared"
+HID_DATA = SHARED / "data" / "hid"
+EVDEV_DATA = SHARED / "data" / "evdev"
+
+
+@pytest.fixture(scope="session")
+def hid_data() -> Path:
+    if not HID_DATA.is_dir():
+        pytest.fail(f"shared HID data not found at {HID_DATA}: clone shared/ beside the repo")
+    return HID_DATA
+
+
+@pytest.fixture(scope="session")
+def evdev_data() -> Path:
+    if not EVDEV_DATA.is_dir():
+        pytest.fail(f"shared evdev data not found at {EVDEV_DATA}: clone shared/ beside the repo")
+    return EVDEV_DATA

@@ -1,0 +1,81 @@
+"""The wire schema: round trips, validation, and the version rule."""
+
+from __future__ import annotations
+
+import math
+
+import msgpack
+import pytest
+
+from stiction import protocol
+from stiction.errors import ProtocolError
+
+
+def _frame(**over: object) -> dict[str, object]:
+    frame: dict[str, object] = {
+        "v": 1,
+        "kind": "frame",
+        "tick": 7,
+        "t": 12.5,
+        "t_input": 12.497,
+        "device": "synthetic:pen",
+        "contacts": [
+            {
+                "id": 0,
+                "phase": "stick",
+                "touch_m": [0.01, 0.02],
+                "pointer_m": [0.009, 0.02],
+                "touch_px": [100.0, 200.0],
+                "pointer_px": [90.0, 200.0],
+                "tension": 1e-4,
+                "material": "rubber",
+                "string": {"length_px": 20.0, "dir": [1.0, 0.0]},
+            }
+        ],
+    }
+    frame.update(over)
+    return frame
+
+
+def test_frame_round_trip_keeps_every_key() -> None:
+    frame = _frame(extra="kept")
+    assert protocol.decode_frame(protocol.encode(frame)) == frame
+
+
+def test_newer_schema_is_refused_with_a_clear_message() -> None:
+    with pytest.raises(ProtocolError, match="newer than this client"):
+        protocol.decode_frame(protocol.encode(_frame(v=protocol.SCHEMA_VERSION + 1)))
+
+
+@pytest.mark.parametrize(
+    "payload",
+    [
+        b"",
+        b"\xc1",
+        msgpack.packb([1, 2, 3]),
+        msgpack.packb({"v": 1, "kind": "frame"}),
+        protocol.encode(_frame(tick="7")),
+        protocol.encode(_frame(t=math.nan)),
+        protocol.encode(_frame(contacts=[{"id": 0, "phase": "flying"}])),
+    ],
+)
+def test_malformed_frames_raise_protocol_error(payload: bytes) -> None:
+    with pytest.raises(ProtocolError):
+        protocol.decode_frame(payload)
+
+
+def test_control_request_round_trip_and_unknown_op() -> None:
+    op, args = protocol.parse_request(protocol.make_request("set_params", mu_s=0.5))
+    assert (op, args) == ("set_params", {"mu_s": 0.5})
+    with pytest.raises(ProtocolError, match="unknown op"):
+        protocol.parse_request(protocol.encode({"v": 1, "op": "format_disk"}))
+
+
+def test_error_reply_raises_with_its_text() -> None:
+    with pytest.raises(ProtocolError, match="no such device"):
+        protocol.parse_reply(protocol.error_reply("no such device"))
+    assert protocol.parse_reply(protocol.ok_reply(tick=3))["tick"] == 3
+
+
+def test_topics_filter_by_prefix() -> None:
+    assert protocol.frame_topic("hid:256c:006d").startswith(protocol.TOPIC_FRAME)
