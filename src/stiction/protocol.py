@@ -213,3 +213,88 @@ def parse_reply(payload: bytes) -> dict[str, Any]:
     if msg.get("ok") is not True:
         raise ProtocolError(str(msg.get("error", "request failed without an error message")))
     return msg
+
+
+# --- scene messages (topic "scene") and snapshots ------------------------------
+# Added for the daemon; see docs/protocol.md "Scene" and "Late subscribers".
+
+KIND_FRAME = "frame"
+KIND_SCENE = "scene"
+PASS_THROUGH = "pass-through"
+"""Material name reported for a contact over an area with no material."""
+EFFECTS: tuple[str, ...] = ("stick_slip", "string", "pressure_load")
+SHAPES: tuple[str, ...] = ("rect", "circle", "polygon")
+
+
+class MaterialWire(TypedDict):
+    mu_s: float
+    mu_k: float
+    k: float
+    m: float
+    g: float
+    C_l: float
+    color: NotRequired[str]
+
+
+class RegionWire(TypedDict):
+    name: str
+    material: str
+    shape: Literal["rect", "circle", "polygon"]
+    rect: NotRequired[list[float]]
+    center: NotRequired[list[float]]
+    radius: NotRequired[float]
+    points: NotRequired[list[list[float]]]
+
+
+class SceneWire(TypedDict):
+    name: str
+    source: str
+    display: list[int]
+    effects: list[str]
+    outside: str
+    materials: dict[str, MaterialWire]
+    regions: list[RegionWire]
+
+
+class SceneMessageWire(TypedDict):
+    v: int
+    kind: Literal["scene"]
+    tick: int
+    scene: SceneWire
+
+
+def scene_message(scene: SceneWire, tick: int) -> SceneMessageWire:
+    """The payload published on TOPIC_SCENE; `tick` is the last tick sent before it."""
+    return {"v": SCHEMA_VERSION, "kind": "scene", "tick": tick, "scene": scene}
+
+
+def validate_scene_message(message: Mapping[str, Any]) -> SceneMessageWire:
+    """Check a decoded scene message's outline (the scene's keys and region shapes)."""
+    check_version(message)
+    if message.get("kind") != KIND_SCENE:
+        raise ProtocolError(f"expected kind 'scene', got {message.get('kind')!r}")
+    tick = message.get("tick")
+    if not isinstance(tick, int) or isinstance(tick, bool):
+        raise ProtocolError("scene message 'tick' must be an integer")
+    scene = message.get("scene")
+    if not isinstance(scene, dict):
+        raise ProtocolError("scene message 'scene' must be a map")
+    display = scene.get("display")
+    _vec(display, "scene.display")
+    if not isinstance(scene.get("materials"), dict):
+        raise ProtocolError("scene.materials must be a map")
+    regions = scene.get("regions")
+    if not isinstance(regions, list):
+        raise ProtocolError("scene.regions must be a list")
+    for i, r in enumerate(regions):
+        if not isinstance(r, dict) or r.get("shape") not in SHAPES:
+            raise ProtocolError(f"scene.regions[{i}].shape must be one of {', '.join(SHAPES)}")
+    return cast(SceneMessageWire, message)
+
+
+def decode_message(payload: bytes) -> FrameWire | SceneMessageWire:
+    """Decode any published payload, dispatching on its ``kind``."""
+    msg = decode(payload)
+    if msg.get("kind") == KIND_SCENE:
+        return validate_scene_message(msg)
+    return validate_frame(msg)
