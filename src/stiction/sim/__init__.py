@@ -35,4 +35,37 @@ to ContactSim to 1e-12 m.
 ``INTEGRATORS`` -- the names accepted: "explicit-euler", "semi-implicit-euler",
 "rk4", "implicit-projection", "exact", and "default" (an alias chosen in
 docs/accuracy.md). ``DEFAULT_INTEGRATOR`` is the name "default" resolves to.
+
+EXTENSIONS (beyond the contract above, all optional):
+
+- ``ContactSim(..., events=None)``: sub-tick event location (break-away found
+  on the quadratic stick bound, rest found inside the step) -- on by default
+  for "exact", off for the fixed-step integrators, available for all.
+- A fixed-step integrator whose step would be unstable at the given k, m,
+  rate and substeps (explicit Euler at w*dt > 2, ...) is refused with a
+  ``ParamError`` naming the substep count that would work.
+- ``ContactSim.clamped_samples``: samples stamped after the tick (or before
+  the path's current time) are used at the nearest allowed time and counted;
+  ``event_overflows`` counts pathological steps cut short.
+- Samples without an ``in_range`` attribute (``Touch``) end a contact as "up";
+  ``PenSample`` with ``in_range=True`` and ``tip=False`` gives "hover".
+- ``Params.w`` (sqrt(k/m)); ``ContactSim.mode`` (internal mode, RESTING is
+  the "slip" phase at rest).
 """
+
+from stiction.sim.batch import BatchSim
+from stiction.sim.contact import ContactSim
+from stiction.sim.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+from stiction.sim.params import Params
+from stiction.sim.state import ContactState, Phase, Touch
+
+__all__ = [
+    "DEFAULT_INTEGRATOR",
+    "INTEGRATORS",
+    "BatchSim",
+    "ContactSim",
+    "ContactState",
+    "Params",
+    "Phase",
+    "Touch",
+]

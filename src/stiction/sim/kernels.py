@@ -1,0 +1,129 @@
+"""Closed-form pieces shared by the one-contact and the batch simulator.
+
+In slip, with the friction direction d frozen over a (sub)step and the touch u
+moving at constant velocity ud, the stretch e = p - u obeys the critically
+damped linear ODE  e'' + 2w e' + w^2 e = -w^2 (F_k/k) d.  Its solution is an
+affine map of (e, e') whose coefficients depend only on w and the step h, so
+they are computed once per step length and a tick without an event costs a
+few multiply-adds. Events (break-away, coming to rest) are located on the
+closed forms: the touch is linear in time, so the stick bound is a quadratic;
+the velocity along a direction is g0 + (A - B tau) exp(-w tau), whose first
+zero is bracketed analytically and polished by safeguarded Newton.
+"""
+
+from __future__ import annotations
+
+import math
+
+EXP_CUTOFF = 700.0
+"""exp(-700) ~ 1e-304: beyond this the propagator is exactly zero, never a denormal."""
+TINY = 1e-280
+"""Coefficients below this are flushed to zero so that long runs never hit denormals."""
+
+Coeffs = tuple[float, float, float, float]
+
+
+def propagator(w: float, h: float) -> Coeffs:
+    """(c11, c12, c21, c22): y(h) = c11 y0 + c12 y0',  y'(h) = c21 y0 + c22 y0'."""
+    wh = w * h
+    if wh > EXP_CUTOFF:
+        return (0.0, 0.0, 0.0, 0.0)
+    e = math.exp(-wh)
+    c = (e * (1.0 + wh), e * h, -e * w * w * h, e * (1.0 - wh))
+    return (
+        c[0] if abs(c[0]) >= TINY else 0.0,
+        c[1] if abs(c[1]) >= TINY else 0.0,
+        c[2] if abs(c[2]) >= TINY else 0.0,
+        c[3] if abs(c[3]) >= TINY else 0.0,
+    )
+
+
+def first_exit(
+    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float
+) -> float | None:
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 reaches r2 from inside, else None."""
+    c = a0x * a0x + a0y * a0y - r2
+    if c > 0.0:
+        return 0.0
+    a = a1x * a1x + a1y * a1y
+    if a == 0.0:
+        return None
+    b = 2.0 * (a0x * a1x + a0y * a1y)
+    sq = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+    # The non-negative root, in the form that does not cancel.
+    tau = (-b + sq) / (2.0 * a) if b <= 0.0 else (2.0 * c) / (-b - sq)
+    if tau > hmax:
+        return None
+    return max(tau, 0.0)
+
+
+def first_entry(
+    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float
+) -> float | None:
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 falls to r2 or below, else None."""
+    c = a0x * a0x + a0y * a0y - r2
+    if c <= 0.0:
+        return 0.0
+    a = a1x * a1x + a1y * a1y
+    b = 2.0 * (a0x * a1x + a0y * a1y)
+    if a == 0.0 or b >= 0.0:
+        return None
+    disc = b * b - 4.0 * a * c
+    if disc < 0.0:
+        return None
+    q = 0.5 * (-b + math.sqrt(disc))
+    tau = c / q
+    if tau > hmax:
+        return None
+    return tau
+
+
+def rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> float | None:
+    """First tau in (0, h] where f(tau) = g0 + (a - b tau) exp(-w tau) <= 0, else None.
+
+    f is the pen velocity along the direction it had at the start of the step;
+    f(h) is passed in because the caller already has it. f' changes sign at
+    most once, so f has at most two zeros and the bracket is found exactly.
+    """
+    f0 = g0 + a
+    d0 = -(b + w * a)  # f'(0)
+    tc = (1.0 / w + a / b) if b != 0.0 else -1.0  # where f' = 0
+    interior = 0.0 < tc < h
+    if f_h <= 0.0:
+        if f0 > 0.0:
+            lo, hi = 0.0, h
+        elif d0 > 0.0 and interior and _f(g0, a, b, w, tc) > 0.0:
+            lo, hi = tc, h
+        else:
+            return 0.0
+    else:
+        if not (d0 < 0.0 and interior):
+            return None if f0 > 0.0 or d0 > 0.0 else 0.0
+        if _f(g0, a, b, w, tc) > 0.0:
+            return None
+        if f0 <= 0.0:
+            return 0.0
+        lo, hi = 0.0, tc
+    return _polish(g0, a, b, w, lo, hi)
+
+
+def _f(g0: float, a: float, b: float, w: float, tau: float) -> float:
+    return g0 + (a - b * tau) * math.exp(-w * tau)
+
+
+def _polish(g0: float, a: float, b: float, w: float, lo: float, hi: float) -> float:
+    """Safeguarded Newton inside [lo, hi] with f(lo) > 0 >= f(hi); returns a point with f <= 0."""
+    tau = 0.5 * (lo + hi)
+    for _ in range(80):
+        e = math.exp(-w * tau)
+        f = g0 + (a - b * tau) * e
+        if f > 0.0:
+            lo = tau
+        else:
+            hi = tau
+        if hi - lo <= 4e-16 * hi + 1e-300:
+            break
+        fp = e * (w * b * tau - b - w * a)
+        nxt = tau - f / fp if fp != 0.0 else 0.5 * (lo + hi)
+        tau = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    return hi
