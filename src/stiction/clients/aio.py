@@ -1,0 +1,138 @@
+"""The asyncio form of Subscriber, for clients that already run an event loop
+(the web bridge, GUI toolkits with asyncio integration). Same filtering,
+counting, conflation and snapshot behaviour: both use stream.StreamState."""
+
+from __future__ import annotations
+
+import asyncio
+from collections.abc import AsyncIterator, Iterable, Sequence
+from typing import cast
+
+import zmq
+import zmq.asyncio
+
+from stiction import protocol
+from stiction.clients import control
+from stiction.clients.messages import Frame, Message
+from stiction.clients.stream import StreamState, SubscriberStats, normalise_kinds, subscriptions
+from stiction.clients.subscriber import DRAIN_LIMIT, configure_sub
+from stiction.errors import StictionError
+
+
+class AsyncSubscriber:
+    """``async for msg in AsyncSubscriber(...)``; see Subscriber for the arguments.
+
+    Create it inside a running loop, or call ``await sub.start()`` to also
+    fetch the snapshot when ``control`` is given.
+    """
+
+    def __init__(
+        self,
+        endpoint: str | Sequence[str] = protocol.DEFAULT_PUB,
+        *,
+        devices: Iterable[str] | None = None,
+        kinds: Iterable[str] = ("frame",),
+        conflate: bool = False,
+        control: str | None = None,
+        context: zmq.asyncio.Context | None = None,
+        hwm: int = 10_000,
+        heartbeat: float = 1.0,
+        snapshot_timeout: float = 1.0,
+    ) -> None:
+        kinds_t = normalise_kinds(kinds)
+        devs = None if devices is None else tuple(devices)
+        self.endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
+        self._state = StreamState(kinds_t, devs, conflate)
+        self._ctx = context or zmq.asyncio.Context.instance()
+        self._sock = self._ctx.socket(zmq.SUB)
+        configure_sub(self._sock, hwm, heartbeat)
+        for topic in subscriptions(kinds_t, devs):
+            self._sock.setsockopt(zmq.SUBSCRIBE, topic)
+        for ep in self.endpoints:
+            try:
+                self._sock.connect(ep)
+            except zmq.ZMQError as exc:
+                self._sock.close()
+                raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
+        self._control = control
+        self._snapshot_timeout = snapshot_timeout
+        self._ready: list[Message] = []
+        self._started = control is None
+
+    @property
+    def stats(self) -> SubscriberStats:
+        return self._state.stats
+
+    async def start(self) -> None:
+        """Fetch the snapshot (once) when a control endpoint was given."""
+        if self._started:
+            return
+        self._started = True
+        assert self._control is not None
+        reply = await control.request_async(
+            self._control, "snapshot", timeout=self._snapshot_timeout, context=self._ctx
+        )
+        self._ready = self._state.snapshot_messages(reply)
+
+    async def recv(self, timeout: float | None = None) -> Message | None:
+        """The next message, or None after ``timeout`` seconds without one."""
+        await self.start()
+        if self._ready:
+            return self._ready.pop(0)
+        loop = asyncio.get_running_loop()
+        deadline = None if timeout is None else loop.time() + timeout
+        while True:
+            msg = self._next_available()
+            if msg is not None:
+                return msg
+            if deadline is None:
+                await self._sock.poll(None)
+                continue
+            remaining = deadline - loop.time()
+            if remaining <= 0 or not await self._sock.poll(max(1, int(remaining * 1000))):
+                return self._next_available()
+
+    def _next_available(self) -> Message | None:
+        # Non-blocking reads on an asyncio socket complete at once or raise Again.
+        state = self._state
+        limit = DRAIN_LIMIT if state.conflate else 1 << 62
+        for _ in range(limit):
+            # On an asyncio socket a NOBLOCK read returns a future that is
+            # already done: the parts, or zmq.Again when nothing is queued.
+            try:
+                fut = cast("asyncio.Future[list[bytes]]", self._sock.recv_multipart(zmq.NOBLOCK))
+                parts = fut.result()
+            except zmq.Again:
+                break
+            msg = state.accept(list(parts))
+            if msg is None:
+                continue
+            if not state.conflate:
+                return msg
+            state.keep_latest(msg)
+        return state.pop_pending()
+
+    async def __aiter__(self) -> AsyncIterator[Message]:
+        while True:
+            msg = await self.recv()
+            if msg is not None:
+                yield msg
+
+    async def frames(self, count: int | None = None) -> AsyncIterator[Frame]:
+        n = 0
+        async for msg in self:
+            if isinstance(msg, Frame):
+                yield msg
+                n += 1
+                if count is not None and n >= count:
+                    return
+
+    def close(self) -> None:
+        self._sock.close(linger=0)
+
+    async def __aenter__(self) -> AsyncSubscriber:
+        await self.start()
+        return self
+
+    async def __aexit__(self, *exc: object) -> None:
+        self.close()

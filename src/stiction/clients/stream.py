@@ -1,0 +1,218 @@
+"""What a subscriber does with each received message, independent of I/O.
+
+Shared by the blocking Subscriber and the asyncio AsyncSubscriber so both
+filter, count, conflate and survive bad input identically. Nothing here
+touches a socket.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from stiction import protocol
+from stiction.clients.messages import Frame, Message, SceneMessage, is_newer_schema, parse_message
+from stiction.errors import ProtocolError
+
+log = logging.getLogger("stiction.clients")
+
+KINDS = ("frame", "scene")
+
+RESTART_BACKSTEP = 10_000
+"""A frame this many ticks older than the snapshot cannot be a late arrival
+from before the snapshot (the queues are not that deep): it is a restarted
+daemon counting from zero again, and is delivered."""
+
+
+@dataclass(slots=True)
+class SubscriberStats:
+    """Counters a long-running client can report; nothing is dropped silently."""
+
+    received: int = 0
+    """Messages taken off the socket, good or bad."""
+    frames: int = 0
+    """Frames delivered to the caller."""
+    scenes: int = 0
+    bad: int = 0
+    """Malformed messages skipped (see last_error)."""
+    conflated: int = 0
+    """Frames replaced by a newer one of the same device before being read."""
+    missed: int = 0
+    """Ticks never seen: gaps in a device's tick sequence (slow reader, reconnect)."""
+    restarts: int = 0
+    """Times a device's ticks went backwards: the daemon restarted."""
+    stale: int = 0
+    """Frames dropped because the snapshot already covered them (clone pattern)."""
+    last_error: str | None = None
+
+
+def normalise_kinds(kinds: Iterable[str]) -> tuple[str, ...]:
+    out = tuple(dict.fromkeys(kinds))
+    for k in out:
+        if k not in KINDS:
+            raise ProtocolError(f"unknown message kind {k!r}; known: {', '.join(KINDS)}")
+    if not out:
+        raise ProtocolError("subscribe to at least one kind of message")
+    return out
+
+
+def subscriptions(kinds: Sequence[str], devices: Sequence[str] | None) -> list[bytes]:
+    """The topic prefixes to subscribe to: filtering happens in the publisher."""
+    topics: list[bytes] = []
+    if "frame" in kinds:
+        if devices is None:
+            topics.append(protocol.TOPIC_FRAME)
+        else:
+            topics.extend(protocol.frame_topic(d) for d in devices)
+    if "scene" in kinds:
+        topics.append(protocol.TOPIC_SCENE)
+    return topics
+
+
+class StreamState:
+    """Turns raw multipart messages into delivered Messages, or into counts."""
+
+    def __init__(self, kinds: Sequence[str], devices: Sequence[str] | None, conflate: bool) -> None:
+        self.kinds = tuple(kinds)
+        self.devices = None if devices is None else frozenset(devices)
+        self.conflate = conflate
+        self.stats = SubscriberStats()
+        self._last_tick: dict[str, int] = {}
+        self._snapshot_tick: dict[str, int] = {}
+        self._snapshot_default: int | None = None
+        self._synced: set[str] = set()
+        self._pending: dict[tuple[str, str], Message] = {}
+        self._bad_logged = 0
+
+    # -- per message -----------------------------------------------------------
+
+    def accept(self, parts: list[bytes]) -> Message | None:
+        """Parse, check and filter one message; None when it is not delivered.
+
+        A newer schema raises ProtocolError: every following frame would be
+        unreadable too, so the caller must hear about it rather than see a
+        silent stream. Anything else malformed is counted and skipped.
+        """
+        self.stats.received += 1
+        if len(parts) < 2:
+            self._bad(f"message with {len(parts)} part(s), expected [topic, payload]")
+            return None
+        topic, payload = parts[0], parts[-1]
+        try:
+            msg = parse_message(topic, payload)
+        except ProtocolError as exc:
+            if self._newer(payload):
+                self.stats.bad += 1
+                self.stats.last_error = str(exc)
+                raise
+            self._bad(str(exc))
+            return None
+        if isinstance(msg, SceneMessage):
+            if "scene" not in self.kinds:
+                return None
+            self.stats.scenes += 1
+            return msg
+        if "frame" not in self.kinds or (
+            self.devices is not None and msg.device not in self.devices
+        ):
+            return None
+        if not self._in_sequence(msg):
+            return None
+        self.stats.frames += 1
+        return msg
+
+    def _newer(self, payload: bytes) -> bool:
+        try:
+            return is_newer_schema(protocol.decode(payload))
+        except ProtocolError:
+            return False
+
+    def _bad(self, why: str) -> None:
+        self.stats.bad += 1
+        self.stats.last_error = why
+        # Log the 1st, 10th, 100th ... so a flood of garbage cannot flood the log.
+        if self.stats.bad >= 10**self._bad_logged:
+            self._bad_logged += 1
+            log.warning("skipped a bad message (%d so far): %s", self.stats.bad, why)
+
+    def _in_sequence(self, frame: Frame) -> bool:
+        dev = frame.device
+        if dev not in self._synced:
+            snap = self._snapshot_tick.get(dev, self._snapshot_default)
+            if snap is not None and snap - RESTART_BACKSTEP < frame.tick <= snap:
+                self.stats.stale += 1
+                return False
+            self._synced.add(dev)
+        last = self._last_tick.get(dev)
+        if last is not None:
+            if frame.tick <= last:
+                self.stats.restarts += 1
+                log.info("device %s restarted its ticks (%d after %d)", dev, frame.tick, last)
+            elif frame.tick > last + 1:
+                self.stats.missed += frame.tick - last - 1
+        self._last_tick[dev] = frame.tick
+        return True
+
+    # -- clone pattern ---------------------------------------------------------
+
+    def snapshot_messages(self, reply: dict[str, Any]) -> list[Message]:
+        """Messages to deliver first from a ``snapshot`` reply, and the ticks to drop.
+
+        Reads the documented keys: ``tick`` (the last tick published, one
+        number or a map device -> tick), ``frames`` (the latest frame per
+        device) and ``scene``. Keys it does not find are simply not used.
+        """
+        out: list[Message] = []
+        scene = reply.get("scene")
+        if "scene" in self.kinds and isinstance(scene, dict):
+            wire = {"v": reply.get("v", protocol.SCHEMA_VERSION), "scene": scene}
+            out.append(SceneMessage(v=int(wire["v"]), wire=wire))
+            self.stats.scenes += 1
+        frames = reply.get("frames")
+        if isinstance(frames, dict):
+            frames = list(frames.values())
+        ticks: dict[str, int] = {}
+        if isinstance(frames, list):
+            for wire_frame in frames:
+                try:
+                    frame = Frame.from_wire(protocol.validate_frame(wire_frame))
+                except (ProtocolError, TypeError, AttributeError) as exc:
+                    self._bad(f"snapshot frame: {exc}")
+                    continue
+                ticks[frame.device] = frame.tick
+                if "frame" in self.kinds and (self.devices is None or frame.device in self.devices):
+                    out.append(frame)
+                    self.stats.frames += 1
+                    self._last_tick[frame.device] = frame.tick
+        tick = reply.get("tick")
+        if isinstance(tick, int) and not isinstance(tick, bool):
+            self._snapshot_default = tick
+        elif isinstance(tick, dict):
+            for dev, t in tick.items():
+                if isinstance(dev, str) and isinstance(t, int) and not isinstance(t, bool):
+                    ticks[dev] = max(t, ticks.get(dev, t))
+        self._snapshot_tick.update(ticks)
+        self._synced.clear()
+        return out
+
+    # -- conflation ------------------------------------------------------------
+
+    def keep_latest(self, msg: Message) -> None:
+        """Hold a message for delivery, replacing an unread one of the same stream."""
+        key = ("scene", "") if isinstance(msg, SceneMessage) else ("frame", msg.device)
+        if key in self._pending:
+            if isinstance(msg, Frame):
+                self.stats.conflated += 1
+                self.stats.frames -= 1
+            else:
+                self.stats.scenes -= 1
+            del self._pending[key]  # re-insert: order follows arrival
+        self._pending[key] = msg
+
+    def pop_pending(self) -> Message | None:
+        if not self._pending:
+            return None
+        key = next(iter(self._pending))
+        return self._pending.pop(key)

@@ -1,0 +1,196 @@
+"""Subscribe to a running stictiond and read its frames as Python objects.
+
+ZeroMQ already reconnects a SUB socket when the daemon comes back; what the
+caller must not see is everything else a restart brings: ticks starting from
+zero again, a half-sent queue, a few malformed messages. This class absorbs
+those (and counts them in ``stats``) so a restart shows up only as a gap.
+
+Conflation is done here, not with ZMQ_CONFLATE: that option cannot carry
+multipart messages and keeps one message for *all* topics, so two devices
+would overwrite each other. Here the latest frame is kept per device.
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Iterable, Iterator, Sequence
+from typing import TYPE_CHECKING, Any
+
+import zmq
+
+from stiction import protocol
+from stiction.clients import control
+from stiction.clients.messages import Frame, Message
+from stiction.clients.stream import StreamState, SubscriberStats, normalise_kinds, subscriptions
+from stiction.errors import StictionError
+
+if TYPE_CHECKING:
+    from stiction.clients.columns import ContactTable
+
+DRAIN_LIMIT = 100_000
+"""Most messages read in one go when conflating, so a flood cannot starve the caller."""
+
+
+def configure_sub(sock: zmq.Socket[Any], hwm: int, heartbeat: float) -> None:
+    """Socket options every stiction subscriber wants, sync or async."""
+    sock.setsockopt(zmq.LINGER, 0)
+    sock.setsockopt(zmq.RCVHWM, hwm)
+    # Reconnect quickly after a daemon restart, back off if it stays away.
+    sock.setsockopt(zmq.RECONNECT_IVL, 100)
+    sock.setsockopt(zmq.RECONNECT_IVL_MAX, 2000)
+    # ZMTP heartbeats notice a daemon whose machine vanished without closing TCP.
+    if heartbeat > 0:
+        sock.setsockopt(zmq.HEARTBEAT_IVL, int(heartbeat * 1000))
+        sock.setsockopt(zmq.HEARTBEAT_TIMEOUT, int(heartbeat * 3000))
+    # Refuse absurd messages in the transport, before they are buffered.
+    sock.setsockopt(zmq.MAXMSGSIZE, 4 * protocol.MAX_MESSAGE_BYTES)
+
+
+def _endpoints(endpoint: str | Sequence[str]) -> list[str]:
+    return [endpoint] if isinstance(endpoint, str) else list(endpoint)
+
+
+class Subscriber:
+    """Frames (and optionally scene messages) from one or more daemons.
+
+    ``endpoint``: a PUB endpoint or several (frames of all are merged).
+    ``devices``: only these devices' frames (default: all).
+    ``kinds``: ``"frame"`` and/or ``"scene"``.
+    ``conflate``: deliver only the newest unread frame of each device.
+    ``control``: the daemon's control endpoint; when given, the subscriber
+    asks it for a snapshot after subscribing (ZeroMQ's clone pattern) so the
+    current scene and frames arrive at once and no frame is seen twice.
+    """
+
+    def __init__(
+        self,
+        endpoint: str | Sequence[str] = protocol.DEFAULT_PUB,
+        *,
+        devices: Iterable[str] | None = None,
+        kinds: Iterable[str] = ("frame",),
+        conflate: bool = False,
+        control: str | None = None,
+        context: zmq.Context[Any] | None = None,
+        hwm: int = 10_000,
+        heartbeat: float = 1.0,
+        snapshot_timeout: float = 1.0,
+    ) -> None:
+        kinds_t = normalise_kinds(kinds)
+        devs = None if devices is None else tuple(devices)
+        self.endpoints = _endpoints(endpoint)
+        self._state = StreamState(kinds_t, devs, conflate)
+        self._ctx = context or zmq.Context.instance()
+        self._sock: zmq.Socket[Any] = self._ctx.socket(zmq.SUB)
+        configure_sub(self._sock, hwm, heartbeat)
+        for topic in subscriptions(kinds_t, devs):
+            self._sock.setsockopt(zmq.SUBSCRIBE, topic)
+        try:
+            for ep in self.endpoints:
+                self._sock.connect(ep)
+        except zmq.ZMQError as exc:
+            self._sock.close()
+            raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
+        self._ready: list[Message] = []
+        if control is not None:
+            reply = control_request(control, snapshot_timeout, self._ctx)
+            self._ready = self._state.snapshot_messages(reply)
+
+    @property
+    def stats(self) -> SubscriberStats:
+        return self._state.stats
+
+    @property
+    def socket(self) -> zmq.Socket[Any]:
+        """The underlying SUB socket, e.g. to register in your own zmq.Poller."""
+        return self._sock
+
+    def recv(self, timeout: float | None = None) -> Message | None:
+        """The next message, or None when ``timeout`` seconds pass without one.
+
+        Raises ProtocolError when the daemon speaks a newer schema.
+        """
+        if self._ready:
+            return self._ready.pop(0)
+        deadline = None if timeout is None else time.monotonic() + timeout
+        while True:
+            msg = self._next_available()
+            if msg is not None:
+                return msg
+            if deadline is None:
+                self._sock.poll(None)
+                continue
+            remaining = deadline - time.monotonic()
+            if remaining <= 0 or not self._sock.poll(max(1, int(remaining * 1000))):
+                msg = self._next_available()
+                return msg
+
+    def _next_available(self) -> Message | None:
+        state = self._state
+        if state.conflate:
+            for _ in range(DRAIN_LIMIT):
+                try:
+                    parts = self._sock.recv_multipart(zmq.NOBLOCK)
+                except zmq.Again:
+                    break
+                msg = state.accept(parts)
+                if msg is not None:
+                    state.keep_latest(msg)
+            return state.pop_pending()
+        while True:
+            try:
+                parts = self._sock.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return None
+            msg = state.accept(parts)
+            if msg is not None:
+                return msg
+
+    def __iter__(self) -> Iterator[Message]:
+        while True:
+            msg = self.recv()
+            if msg is not None:
+                yield msg
+
+    def frames(
+        self, count: int | None = None, seconds: float | None = None, idle: float | None = None
+    ) -> Iterator[Frame]:
+        """Frames only, until ``count`` frames, ``seconds`` elapsed, or ``idle``
+        seconds without any frame (whichever comes first; all None: forever)."""
+        n = 0
+        end = None if seconds is None else time.monotonic() + seconds
+        while count is None or n < count:
+            wait = idle
+            if end is not None:
+                left = end - time.monotonic()
+                if left <= 0:
+                    return
+                wait = left if wait is None else min(wait, left)
+            msg = self.recv(wait)
+            if msg is None:
+                if idle is not None and (end is None or time.monotonic() < end):
+                    return
+                continue
+            if isinstance(msg, Frame):
+                n += 1
+                yield msg
+
+    def collect(
+        self, count: int | None = None, seconds: float | None = None, idle: float | None = None
+    ) -> ContactTable:
+        """Read frames as in `frames` and return them as numpy columns."""
+        from stiction.clients.columns import ContactTable
+
+        return ContactTable.from_frames(self.frames(count, seconds, idle))
+
+    def close(self) -> None:
+        self._sock.close(linger=0)
+
+    def __enter__(self) -> Subscriber:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+def control_request(endpoint: str, timeout: float, ctx: zmq.Context[Any]) -> dict[str, Any]:
+    return control.request(endpoint, "snapshot", timeout=timeout, context=ctx)
