@@ -1,10 +1,215 @@
-"""Command-line sub-commands of this package (see stiction.cli)."""
+"""`stiction evdev decode|read|describe`: look at evdev recordings and devices frame by frame.
+
+`decode` is the interface of architecture.md (one JSON object per SYN_REPORT
+frame); `read` prints the same objects from a live node, so a recording and
+the device it was made on can be compared line by line.
+"""
 
 from __future__ import annotations
 
 import argparse
-from typing import Any
+import json
+import sys
+import time
+from collections.abc import Iterable, Iterator
+from typing import Any, TextIO
+
+from stiction.errors import StictionError
+
+
+def _size(text: str) -> tuple[float, float]:
+    w, sep, h = text.lower().partition("x")
+    try:
+        size = (float(w), float(h))
+    except ValueError:
+        size = (0.0, 0.0)
+    if not sep or not (size[0] > 0 and size[1] > 0):
+        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in mm, e.g. 100x60, got {text!r}")
+    return size
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
-    """Add this package's sub-commands (none yet)."""
+    p = sub.add_parser(
+        "evdev",
+        help="decode evdev recordings and read kernel input devices",
+        description="Kernel input devices (evdev) and their recordings, frame by frame.",
+    )
+    evsub = p.add_subparsers(dest="evdev_command", metavar="COMMAND", required=True)
+
+    d = evsub.add_parser(
+        "decode",
+        help="print the frames of an evemu or libinput record recording",
+        description=(
+            "Decode an evemu recording (one file, or a description and an events file) "
+            "or a `libinput record` YAML file into one object per SYN_REPORT frame."
+        ),
+    )
+    d.add_argument("recording", help="evemu file, evemu .desc, or libinput record .yml")
+    d.add_argument("events", nargs="?", help="evemu events file when separate")
+    d.add_argument("--json", action="store_true", help="one JSON object per frame")
+    d.add_argument(
+        "--realtime", action="store_true", help="print at the recorded pace (default: at once)"
+    )
+    d.add_argument("--size", type=_size, metavar="WxH", help="active area in mm, if not reported")
+    d.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
+    d.set_defaults(func=_decode)
+
+    r = evsub.add_parser(
+        "read",
+        help="print the frames of a live /dev/input/eventN",
+        description="Read a kernel input device and print its frames as `decode` does.",
+    )
+    r.add_argument("device", help="/dev/input/eventN")
+    r.add_argument("--json", action="store_true", help="one JSON object per frame")
+    r.add_argument("--grab", action="store_true", help="take the device exclusively")
+    r.add_argument("--frames", type=int, metavar="N", help="stop after N frames")
+    r.add_argument("--size", type=_size, metavar="WxH", help="active area in mm, if not reported")
+    r.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
+    r.set_defaults(func=_read)
+
+    s = evsub.add_parser(
+        "describe",
+        help="what stiction makes of a device or recording: kind, axes, size",
+    )
+    s.add_argument("source", help="/dev/input/eventN or a recording")
+    s.add_argument("events", nargs="?", help="evemu events file when separate")
+    s.add_argument("--json", action="store_true")
+    s.set_defaults(func=_describe)
+
+
+def frame_json(units: Any, frame: Any) -> dict[str, Any]:
+    return {"time": frame.time, "contacts": [units.contact_json(c) for c in frame.contacts]}
+
+
+def _frame_text(units: Any, frame: Any) -> str:
+    parts = []
+    for c in frame.contacts:
+        j = units.contact_json(c)
+        pos = f"{j['x']},{j['y']}"
+        if j["x_m"] is not None:
+            pos += f" ({j['x_m'] * 1000:.2f},{j['y_m'] * 1000:.2f} mm)"
+        p = "" if j["pressure"] is None else f" p={j['pressure']:.3f}"
+        state = "tip" if j["tip"] else "hover"
+        parts.append(f"#{c.id} {c.tool.value} {state} {pos}{p}")
+    for c in frame.ended:
+        parts.append(f"#{c.id} ended")
+    return f"{frame.time:.6f}  " + ("; ".join(parts) if parts else "-")
+
+
+def _emit(frames: Iterable[Any], units: Any, as_json: bool, out: TextIO) -> int:
+    n = 0
+    for frame in frames:
+        if as_json:
+            out.write(json.dumps(frame_json(units, frame)) + "\n")
+        else:
+            out.write(_frame_text(units, frame) + "\n")
+        n += 1
+        if n % 64 == 0:
+            out.flush()
+    out.flush()
+    return n
+
+
+def _paced(frames: Iterable[Any], realtime: bool) -> Iterator[Any]:
+    start: tuple[float, float] | None = None
+    for f in frames:
+        if realtime:
+            if start is None:
+                start = (time.monotonic(), f.time)
+            delay = start[0] + (f.time - start[1]) - time.monotonic()
+            if delay > 0:
+                time.sleep(delay)
+        yield f
+
+
+def _decode(args: argparse.Namespace) -> int:
+    from stiction.drivers.evdev import sizes
+    from stiction.drivers.evdev.frames import FrameAssembler
+    from stiction.drivers.evdev.recording import load
+    from stiction.drivers.evdev.units import SurfaceUnits
+
+    rec = load(args.recording, args.events)
+    desc = sizes.apply(rec.description, args.size)
+    asm = FrameAssembler(desc)
+
+    def frames() -> Iterator[Any]:
+        feed = asm.feed
+        for s, u, t, c, v in rec.events:
+            f = feed(s, u, t, c, v)
+            if f is not None:
+                yield f
+
+    _emit(_paced(frames(), args.realtime), SurfaceUnits(desc), args.json, sys.stdout)
+    if args.stats:
+        print(json.dumps(dict(asm.stats)), file=sys.stderr)
+    return 0
+
+
+def _read(args: argparse.Namespace) -> int:
+    import itertools
+
+    from stiction.drivers.evdev.device import DeviceSource
+
+    src = DeviceSource(args.device, grab=args.grab, size_mm=args.size)
+    try:
+        frames: Iterable[Any] = src.frames()
+        if args.frames is not None:
+            frames = itertools.islice(frames, args.frames)
+        _emit(frames, src._units, args.json, sys.stdout)
+    finally:
+        src.close()
+        if args.stats:
+            print(json.dumps(src.stats()), file=sys.stderr)
+    return 0
+
+
+def _describe(args: argparse.Namespace) -> int:
+    from stiction.drivers.evdev import sizes
+    from stiction.drivers.evdev.units import SurfaceUnits
+
+    if args.source.startswith("/dev/"):
+        from stiction.drivers.evdev.device import _open, _udev_properties, describe
+
+        dev = _open(args.source)
+        try:
+            desc = describe(dev, _udev_properties(args.source))
+        finally:
+            dev.close()
+    else:
+        from stiction.drivers.evdev.recording import load
+
+        desc = load(args.source, args.events).description
+    fixed = sizes.apply(desc)
+    units = SurfaceUnits(fixed)
+    size = units.surface_size
+    info = {
+        "name": desc.name,
+        "id": [desc.bustype, desc.vendor, desc.product, desc.version],
+        "kind": desc.kind,
+        "multitouch_slots": desc.num_slots,
+        "size_m": list(size) if size else None,
+        "size_source": (
+            "kernel" if SurfaceUnits(desc).resolution_known else "device table" if size else None
+        ),
+        "axes": {
+            _abs_name(code): [a.minimum, a.maximum, a.resolution] for code, a in desc.axes.items()
+        },
+    }
+    if args.json:
+        print(json.dumps(info))
+    else:
+        for k, v in info.items():
+            print(f"{k}: {v}")
+        if size is None:
+            try:
+                sizes.require(fixed)
+            except StictionError as exc:
+                print(f"note: {exc}")
+    return 0
+
+
+def _abs_name(code: int) -> str:
+    from evdev import ecodes
+
+    name = ecodes.ABS.get(code, str(code))
+    return name[0] if isinstance(name, list) else str(name)

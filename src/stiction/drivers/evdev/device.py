@@ -1,0 +1,315 @@
+"""A live /dev/input/eventN read through python-evdev.
+
+What a well-behaved evdev client does, and this one does:
+
+- asks the kernel for CLOCK_MONOTONIC event times (EVIOCSCLOCKID, as libinput
+  does), so sample times share the daemon's clock; if the node refuses, the
+  default CLOCK_REALTIME stays and `clock` says so;
+- on SYN_DROPPED drops the partial frame, skips to the next SYN_REPORT, then
+  re-reads keys (EVIOCGKEY), axis values (EVIOCGABS) and all slots
+  (EVIOCGMTSLOTS through fcntl, which python-evdev does not wrap), and
+  reports the re-read state as a frame;
+- grabs exclusively only when asked, and releases the grab on every exit
+  path (the kernel also drops it when the fd closes, even on a crash);
+- on unplug (ENODEV, or EOF from a hung-up node) ends every contact, then
+  raises DeviceError; the daemon may open the path again when it returns.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import fcntl
+import logging
+import os
+import select
+import struct
+import threading
+import time
+from collections import Counter
+from collections.abc import Iterator
+from typing import Any
+
+from evdev import ecodes
+
+from stiction.drivers.evdev import sizes
+from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
+from stiction.drivers.evdev.frames import SYN_REPORT, DeviceState, Frame, FrameAssembler
+from stiction.drivers.evdev.source import frame_samples, kind_of, slug
+from stiction.drivers.evdev.units import SurfaceUnits
+from stiction.drivers.sample import PenSample
+from stiction.errors import DeviceError
+
+log = logging.getLogger(__name__)
+
+_IOC_WRITE, _IOC_READ = 1, 2
+
+
+def _ioc(direction: int, nr: int, size: int) -> int:
+    return (direction << 30) | (size << 16) | (ord("E") << 8) | nr
+
+
+EVIOCSCLOCKID = _ioc(_IOC_WRITE, 0xA0, 4)
+
+
+def EVIOCGMTSLOTS(size: int) -> int:
+    return _ioc(_IOC_READ, 0x0A, size)
+
+
+_SLOT_CODES = (
+    ecodes.ABS_MT_TRACKING_ID,
+    ecodes.ABS_MT_POSITION_X,
+    ecodes.ABS_MT_POSITION_Y,
+    ecodes.ABS_MT_PRESSURE,
+    ecodes.ABS_MT_DISTANCE,
+    ecodes.ABS_MT_TOOL_TYPE,
+)
+
+
+def _udev_properties(path: str) -> dict[str, str]:
+    """ID_INPUT_* tags from udev; empty when udev (or pyudev) is unavailable."""
+    try:
+        import pyudev
+
+        ctx = pyudev.Context()
+        dev = pyudev.Devices.from_device_file(ctx, path)
+        return {k: str(v) for k, v in dev.properties.items() if k.startswith("ID_INPUT")}
+    except Exception:  # udev missing in containers; the bits alone still classify
+        return {}
+
+
+def describe(dev: Any, udev: dict[str, str] | None = None) -> DeviceDescription:
+    """A DeviceDescription from an open python-evdev InputDevice."""
+    caps = dev.capabilities(absinfo=True)
+    axes: dict[int, AbsAxis] = {}
+    for code, info in caps.get(EV_ABS, []):
+        axes[code] = AbsAxis(
+            info.value, info.min, info.max, info.fuzz, info.flat, float(info.resolution)
+        )
+    other = {t: frozenset(c) for t, c in caps.items() if t not in (EV_SYN, EV_KEY, EV_ABS) and c}
+    try:
+        props = frozenset(dev.input_props())
+    except (OSError, SystemError):
+        props = frozenset()
+    return DeviceDescription(
+        name=dev.name,
+        bustype=dev.info.bustype,
+        vendor=dev.info.vendor,
+        product=dev.info.product,
+        version=dev.info.version,
+        properties=props,
+        keys=frozenset(caps.get(EV_KEY, [])),
+        axes=axes,
+        other=other,
+        udev=udev or {},
+    )
+
+
+def _open(path: str) -> Any:
+    import evdev
+
+    try:
+        return evdev.InputDevice(path)
+    except FileNotFoundError:
+        raise DeviceError(f"{path}: no such input device (unplugged, or a wrong path?)") from None
+    except PermissionError:
+        raise DeviceError(
+            f"{path}: permission denied; install stiction's udev rule (udev/) so the "
+            "logged-in user gets access, or add yourself to the 'input' group"
+        ) from None
+    except OSError as exc:
+        raise DeviceError(f"{path}: cannot open: {exc.strerror or exc}") from None
+
+
+class DeviceSource:
+    """SampleSource over one evdev node."""
+
+    def __init__(
+        self,
+        path: str,
+        grab: bool = False,
+        size_mm: tuple[float, float] | None = None,
+    ) -> None:
+        self.path = path
+        self._dev = _open(path)
+        self._lock = threading.Lock()
+        self._closed = threading.Event()
+        self._released = False
+        self._reading = False
+        self._grabbed = False
+        self._stats: Counter[str] = Counter()
+        self._assembler: FrameAssembler | None = None
+        self._wake_r, self._wake_w = os.pipe()
+        try:
+            desc = describe(self._dev, _udev_properties(path))
+            desc = sizes.apply(desc, size_mm)
+            sizes.require(desc)
+            self.description = desc
+            self._units = SurfaceUnits(desc)
+            self.clock = self._set_monotonic_clock()
+            if grab:
+                try:
+                    self._dev.grab()
+                except OSError as exc:
+                    if exc.errno == errno.EBUSY:
+                        raise DeviceError(
+                            f"{path} ({desc.name!r}) is grabbed by another program"
+                        ) from None
+                    raise DeviceError(f"{path}: cannot grab: {exc.strerror or exc}") from None
+                self._grabbed = True
+        except BaseException:
+            self._release()
+            raise
+
+    # -- SampleSource --------------------------------------------------------
+
+    @property
+    def name(self) -> str:
+        return slug(self.description.name)
+
+    @property
+    def surface_size(self) -> tuple[float, float] | None:
+        return self._units.surface_size
+
+    @property
+    def kind(self) -> str:
+        return kind_of(self.description)
+
+    def samples(self) -> Iterator[PenSample]:
+        units = self._units
+        for frame in self.frames():
+            for s in frame_samples(units, frame):
+                self._stats["samples"] += 1
+                yield s
+
+    def close(self) -> None:
+        """Idempotent; wakes a blocked reader, which then releases the device."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        with contextlib.suppress(OSError):
+            os.write(self._wake_w, b"x")
+        with self._lock:
+            if not self._reading:
+                self._release()
+
+    def stats(self) -> dict[str, int]:
+        out = dict(self._stats)
+        if self._assembler is not None:
+            out.update(self._assembler.stats)
+        return out
+
+    # -- reading -------------------------------------------------------------
+
+    def frames(self) -> Iterator[Frame]:
+        """Frames as the kernel completes them; DeviceError when the device goes away."""
+        with self._lock:
+            if self._released or self._closed.is_set():
+                return
+            self._reading = True
+        asm = FrameAssembler(self.description)
+        self._assembler = asm
+        dev = self._dev
+        fd = dev.fd
+        last = (0, 0)
+        try:
+            while not self._closed.is_set():
+                ready, _, _ = select.select([fd, self._wake_r], [], [])
+                if self._wake_r in ready:
+                    return
+                try:
+                    events = list(dev.read())
+                except BlockingIOError:
+                    continue
+                except OSError as exc:
+                    if exc.errno in (errno.ENODEV, errno.EIO, errno.EBADF):
+                        yield from self._unplugged(asm, last, exc.strerror or str(exc))
+                    raise DeviceError(f"{self.path}: read failed: {exc.strerror or exc}") from None
+                if not events:
+                    # select said readable and read() got 0 bytes: end of file, the node
+                    # was hung up (a real unplug gives ENODEV; umockdev gives EOF).
+                    yield from self._unplugged(asm, last, "end of file")
+                for ev in events:
+                    self._stats["events"] += 1
+                    last = (ev.sec, ev.usec)
+                    frame = asm.feed(ev.sec, ev.usec, ev.type, ev.code, ev.value)
+                    if frame is not None:
+                        yield frame
+                    elif ev.type == EV_SYN and ev.code == SYN_REPORT and asm.needs_resync:
+                        yield asm.resync(self._query_state(), ev.sec, ev.usec)
+        finally:
+            with self._lock:
+                self._reading = False
+                if self._closed.is_set():
+                    self._release()
+                else:
+                    self._ungrab()
+
+    def _unplugged(self, asm: FrameAssembler, last: tuple[int, int], why: str) -> Iterator[Frame]:
+        self._stats["unplugged"] += 1
+        end = asm.finish(*last)
+        if end is not None:
+            yield end
+        raise DeviceError(f"{self.path} ({self.description.name!r}) went away ({why})")
+
+    def _query_state(self) -> DeviceState:
+        """Keys, axis values and slots, re-read from the kernel after SYN_DROPPED."""
+        dev = self._dev
+        keys: frozenset[int] = frozenset()
+        axes: dict[int, int] = {}
+        slots: dict[int, list[int]] = {}
+        try:
+            keys = frozenset(dev.active_keys())
+        except (OSError, SystemError):
+            self._stats["resync_failed_keys"] += 1
+        for code in self.description.axes:
+            try:
+                axes[code] = dev.absinfo(code).value
+            except (OSError, SystemError):
+                self._stats["resync_failed_axes"] += 1
+        n = self.description.num_slots
+        for code in _SLOT_CODES if n else ():
+            if code not in self.description.axes:
+                continue
+            buf = bytearray(struct.pack("i", code) + bytes(4 * n))
+            try:
+                fcntl.ioctl(dev.fd, EVIOCGMTSLOTS(len(buf)), buf, True)
+            except OSError:
+                self._stats["resync_failed_slots"] += 1
+                break
+            slots[code] = list(struct.unpack_from(f"{n}i", buf, 4))
+        return DeviceState(keys, axes, slots)
+
+    def _set_monotonic_clock(self) -> str:
+        try:
+            fcntl.ioctl(self._dev.fd, EVIOCSCLOCKID, struct.pack("i", time.CLOCK_MONOTONIC))
+        except OSError as exc:
+            log.info("%s: kernel event times stay CLOCK_REALTIME (%s)", self.path, exc)
+            return "realtime"
+        return "monotonic"
+
+    # -- cleanup -------------------------------------------------------------
+
+    def _ungrab(self) -> None:
+        if self._grabbed:
+            self._grabbed = False
+            # gone already? then the kernel dropped the grab with the device
+            with contextlib.suppress(OSError):
+                self._dev.ungrab()
+
+    def _release(self) -> None:
+        if self._released:
+            return
+        self._released = True
+        self._ungrab()
+        with contextlib.suppress(OSError):
+            self._dev.close()
+        for fd in (self._wake_r, self._wake_w):
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+    def __enter__(self) -> DeviceSource:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()

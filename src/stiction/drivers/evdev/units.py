@@ -1,0 +1,116 @@
+"""Device units -> SI: positions in surface metres, pressure 0..1, tilt in degrees.
+
+Positions count from the axis minimum (the top-left corner) and divide by the
+kernel's resolution in units/mm (Documentation/input/event-codes.rst:
+"ABS_X/ABS_Y ... resolution in units per millimetre"). Tilt resolution is in
+units per radian; when a driver reports none (old Wacom kernels, tilt 0..127),
+the range is taken to span -64..+64 degrees around its midpoint, as libinput
+does for Wacom-style tilt.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from evdev import ecodes
+
+from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
+from stiction.drivers.evdev.frames import Contact
+from stiction.drivers.sample import PenSample
+
+_FALLBACK_TILT_DEG = 64.0
+
+
+@dataclass(frozen=True)
+class _Linear:
+    offset: float
+    scale: float
+
+    def __call__(self, value: int) -> float:
+        return (value - self.offset) * self.scale
+
+
+def _pressure_scale(axis: AbsAxis | None) -> _Linear | None:
+    if axis is None or axis.maximum <= axis.minimum:
+        return None
+    return _Linear(axis.minimum, 1.0 / (axis.maximum - axis.minimum))
+
+
+def _tilt_scale(axis: AbsAxis | None) -> _Linear | None:
+    if axis is None or axis.maximum <= axis.minimum:
+        return None
+    if axis.resolution > 0 and axis.minimum < 0 < axis.maximum:
+        return _Linear(0.0, math.degrees(1.0 / axis.resolution))
+    mid = (axis.minimum + axis.maximum) / 2.0
+    return _Linear(mid, 2 * _FALLBACK_TILT_DEG / (axis.maximum - axis.minimum))
+
+
+class SurfaceUnits:
+    """Conversions for one device; `resolution_known` is False when only units are known."""
+
+    def __init__(self, desc: DeviceDescription) -> None:
+        cx, cy = desc.position_codes
+        ax, ay = desc.axes.get(cx), desc.axes.get(cy)
+        self.x_axis = ax or AbsAxis(0, 0, 0)
+        self.y_axis = ay or AbsAxis(0, 0, 0)
+        rx, ry = self.x_axis.resolution, self.y_axis.resolution
+        self.resolution_known = rx > 0 and ry > 0
+        self._sx = 1e-3 / rx if rx > 0 else 0.0
+        self._sy = 1e-3 / ry if ry > 0 else 0.0
+        press = ecodes.ABS_MT_PRESSURE if desc.is_multitouch else ecodes.ABS_PRESSURE
+        self._pressure = _pressure_scale(desc.axes.get(press))
+        self._tilt_x = _tilt_scale(desc.axes.get(ecodes.ABS_TILT_X))
+        self._tilt_y = _tilt_scale(desc.axes.get(ecodes.ABS_TILT_Y))
+
+    @property
+    def surface_size(self) -> tuple[float, float] | None:
+        if not self.resolution_known:
+            return None
+        return (
+            (self.x_axis.maximum - self.x_axis.minimum) * self._sx,
+            (self.y_axis.maximum - self.y_axis.minimum) * self._sy,
+        )
+
+    def x_m(self, x: int) -> float | None:
+        return (x - self.x_axis.minimum) * self._sx if self.resolution_known else None
+
+    def y_m(self, y: int) -> float | None:
+        return (y - self.y_axis.minimum) * self._sy if self.resolution_known else None
+
+    def pressure(self, raw: int | None) -> float | None:
+        if raw is None or self._pressure is None:
+            return None
+        p = self._pressure(raw)
+        return 0.0 if p < 0.0 else 1.0 if p > 1.0 else p
+
+    def sample(self, c: Contact, t: float) -> PenSample:
+        """The PenSample for a contact; requires a known resolution."""
+        tx, ty = self._tilt_x, self._tilt_y
+        return PenSample(
+            t=t,
+            x=(c.x - self.x_axis.minimum) * self._sx,
+            y=(c.y - self.y_axis.minimum) * self._sy,
+            tip=c.tip,
+            in_range=c.in_range,
+            contact=c.id,
+            pressure=self.pressure(c.pressure),
+            tool=c.tool,
+            tilt_x=tx(c.tilt_x) if tx is not None and c.tilt_x is not None else None,
+            tilt_y=ty(c.tilt_y) if ty is not None and c.tilt_y is not None else None,
+            buttons=c.buttons,
+        )
+
+    def contact_json(self, c: Contact) -> dict[str, object]:
+        """The `stiction evdev decode --json` form of a contact (architecture.md)."""
+        return {
+            "slot": c.slot,
+            "tracking_id": c.tracking_id,
+            "tool": c.tool.value,
+            "x": c.x,
+            "y": c.y,
+            "x_m": self.x_m(c.x),
+            "y_m": self.y_m(c.y),
+            "pressure": self.pressure(c.pressure),
+            "tip": c.tip,
+        }
