@@ -1,0 +1,257 @@
+"""Compiled report decoders: bit offsets worked out once per report ID.
+
+A tablet sends a report every 4 to 8 ms and a replay may hold millions, so a
+report is never parsed field by field. For one report at a time the layout
+becomes one small generated function (the report read as one integer, then a
+shift and a mask per value); for a whole recording the reports become a
+(n, length) byte array and every group of values that fits in one 64-bit
+window is cut out with two broadcast numpy operations.
+
+Values are the fields' logical values, sign-extended where the logical
+minimum is negative (the kernel's rule). Constant (padding) fields are left
+out; an array field contributes `count` values (the usage indices).
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass
+
+import numpy as np
+import numpy.typing as npt
+
+from stiction.drivers.hid.descriptor import Field, Report
+
+
+@dataclass(frozen=True, slots=True)
+class Element:
+    """One value in a report: which field it belongs to and where its bits are."""
+
+    field_index: int
+    usage: int
+    bit_offset: int
+    bit_size: int
+    signed: bool
+
+
+def _elements(report: Report) -> list[Element]:
+    out: list[Element] = []
+    for i, f in enumerate(report.fields):
+        if f.constant:
+            continue
+        for k in range(f.count):
+            usage = f.usage
+            out.append(Element(i, usage, f.bit_offset + k * f.bit_size, f.bit_size, f.signed))
+    return out
+
+
+_STRUCT_CODES = {
+    (8, False): "B",
+    (8, True): "b",
+    (16, False): "H",
+    (16, True): "h",
+    (32, False): "I",
+    (32, True): "i",
+    (64, False): "Q",
+    (64, True): "q",
+}
+
+
+def _byte_table(elements: list[Element]) -> tuple[tuple[int, ...], ...]:
+    """For each possible byte value, the values of `elements` (all inside that byte)."""
+    table = []
+    for b in range(256):
+        vals = []
+        for e in elements:
+            x = (b >> (e.bit_offset % 8)) & ((1 << e.bit_size) - 1)
+            if e.signed and x >> (e.bit_size - 1):
+                x -= 1 << e.bit_size
+            vals.append(x)
+        table.append(tuple(vals))
+    return tuple(table)
+
+
+def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
+    """Generate ``decode(data) -> tuple`` for this layout.
+
+    The elements are cut, in order, into runs that one cheap C-level step
+    decodes: bit flags sharing a byte become one lookup in a 256-entry table
+    of tuples, byte-aligned 8/16/32/64-bit values in a row become one
+    `struct.unpack_from`, and anything else is a shift and mask of the
+    report read once as an integer. The generated source holds only numbers
+    computed here, never input bytes.
+    """
+    namespace: dict[str, object] = {}
+    parts: list[str] = []
+    need_int = False
+    i = 0
+    n = len(elements)
+    while i < n:
+        e = elements[i]
+        start, shift = divmod(e.bit_offset, 8)
+        if shift + e.bit_size <= 8 and e.bit_size < 8:
+            j = i + 1
+            while (
+                j < n
+                and elements[j].bit_offset // 8 == start
+                and elements[j].bit_offset % 8 + elements[j].bit_size <= 8
+            ):
+                j += 1
+            name = f"T{len(namespace)}"
+            namespace[name] = _byte_table(elements[i:j])
+            parts.append(f"{name}[d[{start}]]")
+            i = j
+            continue
+        if shift == 0 and (e.bit_size, e.signed) in _STRUCT_CODES:
+            fmt = "<"
+            end = start
+            j = i
+            while j < n:
+                f = elements[j]
+                code = _STRUCT_CODES.get((f.bit_size, f.signed))
+                fstart, fshift = divmod(f.bit_offset, 8)
+                if code is None or fshift or fstart < end:
+                    break
+                fmt += "x" * (fstart - end) + code
+                end = fstart + f.bit_size // 8
+                j += 1
+            name = f"S{len(namespace)}"
+            namespace[name] = struct.Struct(fmt).unpack_from
+            parts.append(f"{name}(d, {start})")
+            i = j
+            continue
+        need_int = True
+        mask = (1 << e.bit_size) - 1
+        expr = f"((v >> {e.bit_offset}) & {mask})" if e.bit_offset else f"(v & {mask})"
+        if e.signed:
+            sign = 1 << (e.bit_size - 1)
+            expr = f"(({expr} ^ {sign}) - {sign})"
+        parts.append(f"({expr},)")
+        i += 1
+    lines = ["def decode(d):"]
+    if need_int:
+        lines.append("    v = int.from_bytes(d, 'little')")
+    lines.append(f"    return {' + '.join(parts) if parts else '()'}")
+    exec(compile("\n".join(lines), "<hid report decoder>", "exec"), namespace)
+    fn = namespace["decode"]
+    assert callable(fn)
+    return fn  # type: ignore[no-any-return]
+
+
+@dataclass(frozen=True, slots=True)
+class _Window:
+    """Elements that fit in the 64-bit little-endian word starting at `byte`."""
+
+    byte: int
+    columns: npt.NDArray[np.intp]
+    shifts: npt.NDArray[np.uint64]
+    masks: npt.NDArray[np.uint64]
+
+
+class ReportDecoder:
+    """Decoder for one input report ID; `elements` name the decoded values in order."""
+
+    def __init__(self, report: Report) -> None:
+        self.report = report
+        self.report_id = report.report_id
+        self.byte_size = report.byte_size
+        self.elements = _elements(report)
+        self.decode: Callable[[bytes], tuple[int, ...]] = _compile_one(self.elements)
+        self._windows, self._wide = self._plan_windows()
+        signed = [i for i, e in enumerate(self.elements) if e.signed]
+        self._signed_cols = np.array(signed, dtype=np.intp)
+        self._sign_bits = np.array(
+            [1 << (self.elements[i].bit_size - 1) for i in signed], dtype=np.int64
+        )
+
+    def _plan_windows(self) -> tuple[list[_Window], list[int]]:
+        windows: list[_Window] = []
+        wide: list[int] = []
+        order = sorted(range(len(self.elements)), key=lambda i: self.elements[i].bit_offset)
+        current: list[int] = []
+        base = 0
+
+        def flush() -> None:
+            if current:
+                windows.append(
+                    _Window(
+                        base,
+                        np.array(current, dtype=np.intp),
+                        np.array(
+                            [self.elements[i].bit_offset - 8 * base for i in current],
+                            dtype=np.uint64,
+                        ),
+                        np.array(
+                            [(1 << self.elements[i].bit_size) - 1 for i in current],
+                            dtype=np.uint64,
+                        ),
+                    )
+                )
+
+        for i in order:
+            e = self.elements[i]
+            if e.bit_size > 57:
+                wide.append(i)  # cannot sit in one 64-bit window at any bit shift
+                continue
+            if current and e.bit_offset + e.bit_size <= 8 * base + 64:
+                current.append(i)
+                continue
+            flush()
+            base = e.bit_offset // 8
+            current = [i]
+        flush()
+        return windows, wide
+
+    def values(self, data: bytes) -> dict[int, list[int]]:
+        """Values keyed by usage (several occurrences of a usage are listed in order)."""
+        out: dict[int, list[int]] = {}
+        for e, v in zip(self.elements, self.decode(data), strict=True):
+            out.setdefault(e.usage, []).append(v)
+        return out
+
+    def decode_batch(self, reports: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
+        """Decode a (n, length) byte array of reports of this ID into an (n, elements) array.
+
+        Rows shorter than the report must have been filtered out by the
+        caller; extra bytes per row are ignored. Elements wider than 57 bits
+        (vendor blobs, never pen coordinates) are decoded per row.
+        """
+        n, length = reports.shape
+        if length < self.byte_size:
+            raise ValueError(
+                f"rows of {length} bytes, report {self.report_id} needs {self.byte_size}"
+            )
+        padded_len = max(length, self.byte_size) + 8
+        buf = np.zeros((n, padded_len), dtype=np.uint8)
+        buf[:, :length] = reports
+        out = np.empty((n, len(self.elements)), dtype=np.int64)
+        for w in self._windows:
+            words = np.ndarray(
+                (n,), dtype="<u8", buffer=buf.data, offset=w.byte, strides=(padded_len,)
+            )
+            out[:, w.columns] = ((words[:, None] >> w.shifts) & w.masks).astype(np.int64)
+        if self._signed_cols.size:
+            sub = out[:, self._signed_cols]
+            out[:, self._signed_cols] = (sub ^ self._sign_bits) - self._sign_bits
+        for i in self._wide:
+            e = self.elements[i]
+            mask = (1 << e.bit_size) - 1
+            for r in range(n):
+                v = (int.from_bytes(bytes(reports[r]), "little") >> e.bit_offset) & mask
+                if e.signed and v >> (e.bit_size - 1):
+                    v -= 1 << e.bit_size
+                out[r, i] = max(min(v, 2**63 - 1), -(2**63))
+        return out
+
+
+def field_values(field: Field, data: bytes) -> list[int]:
+    """The values of one field, read the slow obvious way (the reference for tests)."""
+    v = int.from_bytes(data, "little")
+    out = []
+    for k in range(field.count):
+        x = (v >> (field.bit_offset + k * field.bit_size)) & ((1 << field.bit_size) - 1)
+        if field.signed and x >> (field.bit_size - 1):
+            x -= 1 << field.bit_size
+        out.append(x)
+    return out

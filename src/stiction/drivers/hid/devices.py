@@ -1,0 +1,116 @@
+"""The device table (devices.toml beside this file): quirks as data, like libinput's.
+
+Adding a device means adding a [[device]] table with its source; no code
+changes. The file is validated as a whole on load, so a typo in it is a
+clear error naming the entry, not a device that silently misbehaves.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from dataclasses import dataclass, field
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+from stiction.errors import DeviceError
+
+INIT_KINDS = ("huion-string-descriptor", "feature:", "output:")
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceEntry:
+    vid: int
+    pid: int
+    name: str
+    source: str
+    init: str | None = None
+    size_m: tuple[float, float] | None = None
+    pen_reports: frozenset[int] = frozenset()
+    usage_aliases: dict[int, int] = field(default_factory=dict)
+    descriptor: bytes | None = None
+
+
+def _int(text: str, where: str) -> int:
+    try:
+        return int(text, 16)
+    except ValueError:
+        raise DeviceError(f"{where}: {text!r} is not a hex number") from None
+
+
+def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
+    ident = raw.get("id")
+    if not isinstance(ident, str) or ident.count(":") != 1:
+        raise DeviceError(f"{where}: 'id' must be \"vvvv:pppp\"")
+    vid_s, pid_s = ident.split(":")
+    vid, pid = _int(vid_s, where), _int(pid_s, where)
+    where = f"{where} ({ident})"
+    name, source = raw.get("name", ident), raw.get("source")
+    if not isinstance(name, str) or not isinstance(source, str) or not source:
+        raise DeviceError(f"{where}: 'name' and a non-empty 'source' are required")
+    init = raw.get("init")
+    if init is not None and (
+        not isinstance(init, str) or not any(init.startswith(k) for k in INIT_KINDS)
+    ):
+        raise DeviceError(f"{where}: unknown init {init!r}; known: {', '.join(INIT_KINDS)}")
+    size_m = None
+    if "size_mm" in raw:
+        size = raw["size_mm"]
+        if (
+            not isinstance(size, list)
+            or len(size) != 2
+            or not all(isinstance(v, int | float) and v > 0 for v in size)
+        ):
+            raise DeviceError(f"{where}: 'size_mm' must be [width, height], both > 0")
+        size_m = (float(size[0]) / 1000.0, float(size[1]) / 1000.0)
+    pen_reports = raw.get("pen_reports", [])
+    if not isinstance(pen_reports, list) or not all(
+        isinstance(r, int) and 0 <= r <= 255 for r in pen_reports
+    ):
+        raise DeviceError(f"{where}: 'pen_reports' must be a list of report IDs")
+    aliases_raw = raw.get("usage_aliases", {})
+    if not isinstance(aliases_raw, dict):
+        raise DeviceError(f"{where}: 'usage_aliases' must be a table")
+    aliases = {_int(str(k), where): _int(str(v), where) for k, v in aliases_raw.items()}
+    desc = raw.get("descriptor")
+    descriptor = None
+    if desc is not None:
+        if not isinstance(desc, str):
+            raise DeviceError(f"{where}: 'descriptor' must be a hex string")
+        try:
+            descriptor = bytes.fromhex(desc)
+        except ValueError:
+            raise DeviceError(f"{where}: 'descriptor' is not hex") from None
+    return DeviceEntry(
+        vid, pid, name, source, init, size_m, frozenset(pen_reports), aliases, descriptor
+    )
+
+
+def parse_table(text: str, where: str = "devices.toml") -> dict[tuple[int, int], DeviceEntry]:
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DeviceError(f"{where}: {exc}") from None
+    table: dict[tuple[int, int], DeviceEntry] = {}
+    devices = data.get("device", [])
+    if not isinstance(devices, list):
+        raise DeviceError(f"{where}: expected [[device]] tables")
+    for i, raw in enumerate(devices):
+        if not isinstance(raw, dict):
+            raise DeviceError(f"{where}: device {i + 1} is not a table")
+        entry = _entry(raw, f"{where}: device {i + 1}")
+        key = (entry.vid, entry.pid)
+        if key in table:
+            raise DeviceError(f"{where}: {entry.vid:04x}:{entry.pid:04x} is listed twice")
+        table[key] = entry
+    return table
+
+
+@cache
+def builtin_table() -> dict[tuple[int, int], DeviceEntry]:
+    text = resources.files("stiction.drivers.hid").joinpath("devices.toml").read_text("utf-8")
+    return parse_table(text, str(Path(__file__).with_name("devices.toml")))
+
+
+def lookup(vid: int, pid: int) -> DeviceEntry | None:
+    return builtin_table().get((vid, pid))

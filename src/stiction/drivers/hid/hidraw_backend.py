@@ -1,0 +1,253 @@
+"""Live devices through hidapi's hidraw backend (the `hidraw` module of PyPI `hidapi`).
+
+The hidraw backend reads /dev/hidrawN beside the kernel's own driver, so
+the desktop keeps its pointer while stiction reads the same pen; it needs
+read access to the node (udev `uaccess`), never root.
+
+hidraw reports carry no timestamp: a sample's time is the monotonic clock
+when the read returned. An unplugged device makes the read fail: the
+source logs it, closes the handle and raises DeviceError from `samples()`
+so that the daemon can reconnect.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import logging
+import os
+import re
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+from stiction.drivers.hid.descriptor import parse_descriptor
+from stiction.drivers.hid.devices import DeviceEntry, lookup
+from stiction.drivers.hid.pen import device_kind
+from stiction.drivers.hid.report_source import ReportSource
+from stiction.drivers.hid.stream import ReportStream
+from stiction.drivers.info import DeviceInfo
+from stiction.errors import DescriptorError, DeviceError
+
+log = logging.getLogger(__name__)
+
+READ_TIMEOUT_MS = 100  # how soon a blocked read notices close()
+MAX_REPORT = 16384
+_VIDPID = re.compile(r"^([0-9a-fA-F]{4}):([0-9a-fA-F]{4})$")
+
+
+def _hidraw() -> Any:
+    try:
+        import hidraw
+    except ImportError as exc:  # pragma: no cover - hidapi is a dependency
+        raise DeviceError(f"the hidapi package (module 'hidraw') is missing: {exc}") from None
+    return hidraw
+
+
+def _enumerate() -> list[dict[str, Any]]:
+    """One entry per hidraw node (hidapi lists one per top-level collection)."""
+    seen: dict[bytes, dict[str, Any]] = {}
+    for d in _hidraw().enumerate():
+        seen.setdefault(d["path"], d)
+    return list(seen.values())
+
+
+def _resolve(path_or_vidpid: str) -> tuple[bytes, int, int, str]:
+    m = _VIDPID.match(path_or_vidpid.strip())
+    devices = _enumerate()
+    if m:
+        vid, pid = int(m.group(1), 16), int(m.group(2), 16)
+        matches = [d for d in devices if d["vendor_id"] == vid and d["product_id"] == pid]
+        if not matches:
+            raise DeviceError(f"no hidraw device with id {vid:04x}:{pid:04x} found")
+        # A tablet has several interfaces: take the first whose descriptor has a pen/touch.
+        for d in sorted(matches, key=lambda d: d["path"]):
+            info = _probe(d)
+            if info is not None and info.kind != "other":
+                return d["path"], vid, pid, d.get("product_string") or ""
+        d = matches[0]
+        return d["path"], vid, pid, d.get("product_string") or ""
+    path = path_or_vidpid.encode()
+    for d in devices:
+        if d["path"] == path:
+            return path, d["vendor_id"], d["product_id"], d.get("product_string") or ""
+    if not os.path.exists(path_or_vidpid):
+        raise DeviceError(f"{path_or_vidpid}: no such hidraw device")
+    return path, 0, 0, ""
+
+
+def _open_handle(path: bytes) -> Any:
+    dev = _hidraw().device()
+    try:
+        dev.open_path(path)
+    except OSError as exc:
+        raise DeviceError(
+            f"cannot open {path.decode(errors='replace')}: {exc} "
+            "(install udev/ rules for uaccess, or check the path)"
+        ) from None
+    return dev
+
+
+def _descriptor(dev: Any, path: bytes) -> bytes:
+    try:
+        return bytes(dev.get_report_descriptor())
+    except (OSError, ValueError) as exc:
+        raise DeviceError(
+            f"{path.decode(errors='replace')}: cannot read the report descriptor: {exc}"
+        ) from None
+
+
+def _vendor_init(dev: Any, entry: DeviceEntry | None) -> tuple[float, float] | None:
+    """Run the table's initialisation; returns a size learned from the device, if any."""
+    if entry is None or entry.init is None:
+        return None
+    if entry.init == "huion-string-descriptor":
+        from stiction.drivers.hid.usb_init import huion_init
+
+        params = huion_init(entry.vid, entry.pid)
+        log.info("%s: Huion parameters %s", entry.name, params)
+        return params.size_m
+    kind, _, hexdata = entry.init.partition(":")
+    data = bytes.fromhex(hexdata)
+    try:
+        if kind == "feature":
+            dev.send_feature_report(data)
+        else:
+            dev.write(data)
+    except OSError as exc:
+        raise DeviceError(
+            f"{entry.name}: vendor initialisation ({entry.init}) failed: {exc}"
+        ) from None
+    return None
+
+
+class HidrawReader:
+    """Iterates (monotonic time, report) from an open handle until closed or unplugged.
+
+    hidapi is not safe against closing a handle another thread is reading,
+    so close() only asks; the reading generator closes the handle itself
+    within READ_TIMEOUT_MS. If no read is running, close() closes at once.
+    """
+
+    def __init__(self, dev: Any, label: str, max_len: int) -> None:
+        self.dev = dev
+        self.label = label
+        self.max_len = max_len
+        self._stop = threading.Event()
+        self._lock = threading.Lock()
+        self._reading = False
+        self._handle_closed = False
+
+    def _close_handle(self) -> None:
+        with self._lock:
+            if not self._handle_closed:
+                self._handle_closed = True
+                with contextlib.suppress(OSError):  # a vanished device
+                    self.dev.close()
+
+    def request_close(self) -> None:
+        self._stop.set()
+        with self._lock:
+            reading = self._reading
+        if not reading:
+            self._close_handle()
+
+    def __iter__(self) -> Iterator[tuple[float, bytes]]:
+        with self._lock:
+            if self._handle_closed:
+                return
+            self._reading = True
+        try:
+            while not self._stop.is_set():
+                try:
+                    data = self.dev.read(self.max_len, READ_TIMEOUT_MS)
+                except (OSError, ValueError) as exc:
+                    log.warning("%s: read failed (%s): device gone, closing", self.label, exc)
+                    raise DeviceError(
+                        f"{self.label}: device read failed ({exc}): unplugged?"
+                    ) from None
+                if data:
+                    yield time.monotonic(), bytes(data)
+        finally:
+            with self._lock:
+                self._reading = False
+            self._close_handle()
+
+
+def open_hidraw(path_or_vidpid: str, size_m: tuple[float, float] | None = None) -> ReportSource:
+    """Open a hidraw node (path) or the first pen/touch interface of a vid:pid."""
+    path, vid, pid, product = _resolve(path_or_vidpid)
+    dev = _open_handle(path)
+    try:
+        label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
+        entry = lookup(vid, pid)
+        raw = entry.descriptor if entry and entry.descriptor else _descriptor(dev, path)
+        desc = parse_descriptor(raw)
+        learned = _vendor_init(dev, entry)
+        stream = ReportStream(desc, label, size_m or learned, entry)
+        max_len = max((r.byte_size for r in desc.input_reports.values()), default=64)
+        reader = HidrawReader(dev, label, min(max(max_len, 64), MAX_REPORT))
+    except BaseException:
+        dev.close()
+        raise
+    name = f"hidraw-{Path(path.decode(errors='replace')).name}"
+    return ReportSource(name, stream, reader, realtime=False, on_close=reader.request_close)
+
+
+def _probe(d: dict[str, Any]) -> DeviceInfo | None:
+    path: bytes = d["path"]
+    spath = path.decode(errors="replace")
+    name = d.get("product_string") or d.get("manufacturer_string") or ""
+    vid, pid = d["vendor_id"], d["product_id"]
+    try:
+        dev = _open_handle(path)
+    except DeviceError:
+        # Without access only hidapi's top-level usage page is known.
+        digitizer = d.get("usage_page") in (0x0D, 0xFF0D)
+        return DeviceInfo(
+            spath,
+            "hidraw",
+            vid,
+            pid,
+            name,
+            "pen" if digitizer else "other",
+            "no read access: install the udev rule from udev/ and re-plug the device",
+        )
+    try:
+        raw = _descriptor(dev, path)
+    except DeviceError as exc:
+        return DeviceInfo(spath, "hidraw", vid, pid, name, "other", str(exc))
+    finally:
+        dev.close()
+    entry = lookup(vid, pid)
+    try:
+        desc = parse_descriptor(entry.descriptor if entry and entry.descriptor else raw)
+    except DescriptorError as exc:
+        return DeviceInfo(spath, "hidraw", vid, pid, name, "other", f"bad descriptor: {exc}")
+    kind = device_kind(desc, entry.pen_reports if entry else frozenset())
+    problem = None
+    if kind != "other":
+        try:
+            ReportStream(desc, name, None, entry)
+        except DeviceError as exc:
+            problem = (
+                "needs vendor initialisation when opened"
+                if entry and entry.init
+                else str(exc).split(": ", 1)[-1]
+            )
+    return DeviceInfo(spath, "hidraw", vid, pid, name, kind, problem)
+
+
+def discover() -> list[DeviceInfo]:
+    """Pen, touch screen and touchpad interfaces among the hidraw nodes."""
+    try:
+        devices = _enumerate()
+    except DeviceError:
+        return []
+    found = []
+    for d in sorted(devices, key=lambda d: d["path"]):
+        info = _probe(d)
+        if info is not None and info.kind != "other":
+            found.append(info)
+    return found

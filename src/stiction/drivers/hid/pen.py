@@ -1,0 +1,335 @@
+"""Decoded report values -> PenSamples in surface metres.
+
+Works from the descriptor alone: any report that carries absolute X and Y in
+a digitizer application (pen, touch screen, touchpad) is a contact report,
+and each Stylus/Puck/Finger collection in it is one contact. The rest of a
+device's reports (vendor data, mouse emulation, keyboards) are counted and
+ignored. Where the descriptor has no physical size, the caller passes one
+(from the device table or the user); with neither, the device is refused,
+because coordinates that are not metres would silently break the physics.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from stiction.drivers.hid.decoder import ReportDecoder
+from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, ReportDescriptor
+from stiction.drivers.hid.units import degrees_per_logical, extent_m, unit_name
+from stiction.drivers.sample import PenSample, Tool
+from stiction.errors import DeviceError
+
+GD_X, GD_Y = 0x00010030, 0x00010031
+DIG = 0x000D0000
+DIG_DIGITIZER, DIG_PEN, DIG_TOUCHSCREEN, DIG_TOUCHPAD = (
+    DIG | 0x01,
+    DIG | 0x02,
+    DIG | 0x04,
+    DIG | 0x05,
+)
+DIG_STYLUS, DIG_PUCK, DIG_FINGER = DIG | 0x20, DIG | 0x21, DIG | 0x22
+TIP_PRESSURE, IN_RANGE, INVERT, X_TILT, Y_TILT = (
+    DIG | 0x30,
+    DIG | 0x32,
+    DIG | 0x3C,
+    DIG | 0x3D,
+    DIG | 0x3E,
+)
+TIP_SWITCH, BARREL, ERASER = DIG | 0x42, DIG | 0x44, DIG | 0x45
+CONFIDENCE, CONTACT_ID, CONTACT_COUNT, SECONDARY_BARREL = (
+    DIG | 0x47,
+    DIG | 0x51,
+    DIG | 0x54,
+    DIG | 0x5A,
+)
+
+_WANTED = (
+    GD_X,
+    GD_Y,
+    TIP_PRESSURE,
+    IN_RANGE,
+    INVERT,
+    X_TILT,
+    Y_TILT,
+    TIP_SWITCH,
+    BARREL,
+    ERASER,
+    CONFIDENCE,
+    CONTACT_ID,
+    SECONDARY_BARREL,
+)
+
+WACOM_VENDOR_PAGE = 0xFF0D
+
+APPLICATION_KIND = {
+    DIG_DIGITIZER: "pen",
+    DIG_PEN: "pen",
+    DIG_STYLUS: "pen",
+    (WACOM_VENDOR_PAGE << 16) | 0x01: "pen",
+    (WACOM_VENDOR_PAGE << 16) | 0x02: "pen",
+    DIG_TOUCHSCREEN: "touchscreen",
+    DIG_TOUCHPAD: "touchpad",
+}
+
+
+@dataclass(frozen=True, slots=True)
+class Axis:
+    """How one coordinate element maps to metres."""
+
+    element: int
+    logical_min: int
+    metres_per_unit: float
+
+
+@dataclass(frozen=True, slots=True)
+class ContactLayout:
+    """Where one contact's values sit in the decoded tuple of its report."""
+
+    finger: bool
+    x: Axis
+    y: Axis
+    width_m: float
+    height_m: float
+    el: dict[int, int]  # usage -> element index (first occurrence in the group)
+    pressure_min: int
+    pressure_span: int
+    tilt_x_deg: float
+    tilt_y_deg: float
+
+
+@dataclass(frozen=True, slots=True)
+class ReportMapping:
+    decoder: ReportDecoder
+    contacts: tuple[ContactLayout, ...]
+    contact_count: int | None  # element index of Contact Count
+
+
+def canonical_usage(usage: int, aliases: dict[int, int] | None = None) -> int:
+    """The standard usage a field stands for.
+
+    Wacom's vendor page 0xff0d repeats the digitizer page with X and Y at
+    0x130/0x131 (the kernel's wacom_equivalent_usage does the same); the
+    device table may alias further usages (a button that is the tip).
+    """
+    if aliases and usage in aliases:
+        return aliases[usage]
+    if usage >> 16 == WACOM_VENDOR_PAGE:
+        low = usage & 0xFFFF
+        if low == 0x130:
+            return GD_X
+        if low == 0x131:
+            return GD_Y
+        return DIG | low
+    return usage
+
+
+def _first_fields(
+    fields: list[Field], decoder: ReportDecoder, aliases: dict[int, int] | None
+) -> dict[int, dict[int, int]]:
+    """group -> usage -> element index of the first non-constant variable field with that usage."""
+    index_of_field = {e.field_index: i for i, e in reversed(list(enumerate(decoder.elements)))}
+    groups: dict[int, dict[int, int]] = {}
+    for fi, f in enumerate(fields):
+        if f.constant or not f.variable or fi not in index_of_field:
+            continue
+        usage = canonical_usage(f.usage, aliases)
+        if usage in (GD_X, GD_Y) and f.relative:
+            continue
+        g = groups.setdefault(f.group, {})
+        if usage in _WANTED and usage not in g:
+            g[usage] = index_of_field[fi]
+    return groups
+
+
+def _axis_size(f: Field, override: float | None) -> float | None:
+    if override is not None:
+        return override
+    return extent_m(f)
+
+
+def _size_error(device: str, f: Field, which: str) -> DeviceError:
+    return DeviceError(
+        f"{device}: the report descriptor gives no physical size for {which} "
+        f"(unit {unit_name(f.unit)}, physical {f.physical_min}..{f.physical_max}), so its "
+        "coordinates cannot be converted to metres; add the device's active area to the "
+        "device table (src/stiction/drivers/hid/devices.toml) or pass its size "
+        "(e.g. --size 254x158.8 in millimetres)"
+    )
+
+
+def build_mappings(
+    desc: ReportDescriptor,
+    device: str,
+    size_m: tuple[float, float] | None = None,
+    pen_reports: frozenset[int] = frozenset(),
+    aliases: dict[int, int] | None = None,
+) -> dict[int, ReportMapping]:
+    """Contact mappings for every input report that carries contacts, keyed by report ID.
+
+    A report counts when its application collection is a digitizer (or
+    Wacom's vendor digitizer), or when the device table lists it in
+    `pen_reports`. Raises DeviceError when a contact report has no physical
+    size and none is given.
+    """
+    mappings: dict[int, ReportMapping] = {}
+    for rid, report in desc.input_reports.items():
+        page = report.application >> 16
+        if page not in (DIG >> 16, WACOM_VENDOR_PAGE) and rid not in pen_reports:
+            continue
+        decoder = ReportDecoder(report)
+        groups = _first_fields(report.fields, decoder, aliases)
+        group_usage = {
+            f.group: (f.logical if f.logical in CONTACT_COLLECTIONS else f.physical)
+            for f in report.fields
+        }
+        contacts: list[ContactLayout] = []
+        for gid, el in groups.items():
+            if GD_X not in el or GD_Y not in el:
+                continue
+            fx = report.fields[decoder.elements[el[GD_X]].field_index]
+            fy = report.fields[decoder.elements[el[GD_Y]].field_index]
+            if fx.logical_max <= fx.logical_min or fy.logical_max <= fy.logical_min:
+                raise DeviceError(
+                    f"{device}: report {rid} has an empty logical range for X or Y "
+                    f"(X {fx.logical_min}..{fx.logical_max}, Y {fy.logical_min}..{fy.logical_max})"
+                )
+            w = _axis_size(fx, size_m[0] if size_m else None)
+            h = _axis_size(fy, size_m[1] if size_m else None)
+            if w is None:
+                raise _size_error(device, fx, "X")
+            if h is None:
+                raise _size_error(device, fy, "Y")
+            finger = group_usage.get(gid) == DIG_FINGER or (
+                APPLICATION_KIND.get(report.application) in ("touchpad", "touchscreen")
+                and group_usage.get(gid) not in (DIG_STYLUS, DIG_PUCK)
+            )
+            pmin, pspan = 0, 0
+            if TIP_PRESSURE in el:
+                fp = report.fields[decoder.elements[el[TIP_PRESSURE]].field_index]
+                pmin, pspan = fp.logical_min, fp.logical_max - fp.logical_min
+            tx = ty = 1.0
+            if X_TILT in el:
+                tx = degrees_per_logical(report.fields[decoder.elements[el[X_TILT]].field_index])
+            if Y_TILT in el:
+                ty = degrees_per_logical(report.fields[decoder.elements[el[Y_TILT]].field_index])
+            contacts.append(
+                ContactLayout(
+                    finger=finger,
+                    x=Axis(el[GD_X], fx.logical_min, w / (fx.logical_max - fx.logical_min)),
+                    y=Axis(el[GD_Y], fy.logical_min, h / (fy.logical_max - fy.logical_min)),
+                    width_m=w,
+                    height_m=h,
+                    el=el,
+                    pressure_min=pmin,
+                    pressure_span=pspan,
+                    tilt_x_deg=tx,
+                    tilt_y_deg=ty,
+                )
+            )
+        if not contacts:
+            continue
+        count_el = next(
+            (
+                i
+                for i, e in enumerate(decoder.elements)
+                if canonical_usage(e.usage, aliases) == CONTACT_COUNT
+                and report.fields[e.field_index].variable
+            ),
+            None,
+        )
+        mappings[rid] = ReportMapping(decoder, tuple(contacts), count_el)
+    return mappings
+
+
+def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset()) -> str:
+    """ "pen", "touchscreen", "touchpad" or "other", from the input reports' applications."""
+    kinds = {APPLICATION_KIND.get(r.application) for r in desc.input_reports.values()}
+    if pen_reports & set(desc.input_reports):
+        kinds.add("pen")
+    for k in ("pen", "touchscreen", "touchpad"):
+        if k in kinds:
+            return k
+    return "other"
+
+
+class ContactTracker:
+    """Turns decoded values into PenSamples, remembering which contacts are active.
+
+    The last sample of a contact (lift, out of range) is emitted once with
+    `in_range=False`; idle reports with nothing in range produce nothing.
+    Multi-touch reports in hybrid mode (Contact Count in the first report of
+    a frame, 0 in the ones that follow) are followed across reports.
+    """
+
+    def __init__(self) -> None:
+        self.active: dict[int, bool] = {}
+        self.remaining = 0
+
+    def samples(self, t: float, m: ReportMapping, values: tuple[int, ...]) -> list[PenSample]:
+        out: list[PenSample] = []
+        layouts = m.contacts
+        if m.contact_count is not None and any(c.finger for c in layouts):
+            n = values[m.contact_count]
+            if n > 0:
+                self.remaining = n
+            take = min(len(layouts), max(self.remaining, 0))
+            self.remaining -= take
+            layouts = layouts[:take]
+        for c in layouts:
+            s = self._sample(t, c, values)
+            if s is not None:
+                out.append(s)
+        return out
+
+    def _sample(self, t: float, c: ContactLayout, v: tuple[int, ...]) -> PenSample | None:
+        el = c.el
+        tip_i = el.get(TIP_SWITCH)
+        eraser_i = el.get(ERASER)
+        invert_i = el.get(INVERT)
+        pressure: float | None = None
+        if TIP_PRESSURE in el and c.pressure_span > 0:
+            pressure = min(max((v[el[TIP_PRESSURE]] - c.pressure_min) / c.pressure_span, 0.0), 1.0)
+        eraser = bool(eraser_i is not None and v[eraser_i])
+        inverted = bool(invert_i is not None and v[invert_i])
+        if tip_i is not None:
+            tip = bool(v[tip_i]) or eraser
+        else:
+            tip = pressure is not None and pressure > 0.0
+        if c.finger:
+            contact = 1 + (v[el[CONTACT_ID]] if CONTACT_ID in el else 0)
+            confident = CONFIDENCE not in el or bool(v[el[CONFIDENCE]])
+            in_range = tip and confident
+            tip = in_range
+            tool = Tool.FINGER
+        else:
+            contact = 0
+            in_range = bool(v[el[IN_RANGE]]) if IN_RANGE in el else True
+            in_range = in_range or tip
+            tool = Tool.ERASER if (eraser or inverted) else Tool.PEN
+        was = self.active.get(contact, False)
+        if not in_range and not was:
+            return None
+        self.active[contact] = in_range
+        x = (v[c.x.element] - c.x.logical_min) * c.x.metres_per_unit
+        y = (v[c.y.element] - c.y.logical_min) * c.y.metres_per_unit
+        if not (math.isfinite(x) and math.isfinite(y)):
+            return None
+        buttons = 0
+        if BARREL in el and v[el[BARREL]]:
+            buttons |= 1
+        if SECONDARY_BARREL in el and v[el[SECONDARY_BARREL]]:
+            buttons |= 2
+        return PenSample(
+            t=t,
+            x=x,
+            y=y,
+            tip=tip and in_range,
+            in_range=in_range,
+            contact=contact,
+            pressure=pressure,
+            tool=tool,
+            tilt_x=v[el[X_TILT]] * c.tilt_x_deg if X_TILT in el else None,
+            tilt_y=v[el[Y_TILT]] * c.tilt_y_deg if Y_TILT in el else None,
+            buttons=buttons,
+        )

@@ -1,0 +1,86 @@
+"""Raw reports of one device -> PenSamples, with every bad report counted, never raised.
+
+This is the part shared by the hidraw backend, the replay of recordings
+and the synthetic tablet: they differ only in where the bytes come from.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections import Counter
+
+from stiction.drivers.hid.descriptor import ReportDescriptor
+from stiction.drivers.hid.devices import DeviceEntry
+from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
+from stiction.drivers.sample import PenSample
+
+log = logging.getLogger(__name__)
+
+
+class ReportStream:
+    """Decodes one device's input reports; `stats` counts what happened to each.
+
+    Counters: `reports` (all reports fed), `samples`, `ignored` (valid
+    reports that carry no contact, e.g. vendor or mouse reports),
+    `short_reports`, `unknown_report_id`, `empty_reports`, `bad_values`.
+    The first few malformed reports are logged, the rest only counted, so a
+    misbehaving device cannot flood the log.
+    """
+
+    LOG_FIRST = 5
+
+    def __init__(
+        self,
+        desc: ReportDescriptor,
+        device: str,
+        size_m: tuple[float, float] | None = None,
+        entry: DeviceEntry | None = None,
+    ) -> None:
+        """`size_m` (the user's) wins over the device table's size, which wins over none."""
+        self.desc = desc
+        self.device = device
+        pen_reports = entry.pen_reports if entry else frozenset()
+        aliases = entry.usage_aliases if entry else None
+        if size_m is None and entry is not None:
+            size_m = entry.size_m
+        self.mappings = build_mappings(desc, device, size_m, pen_reports, aliases)
+        self.numbered = desc.numbered
+        self.known_ids = set(desc.input_reports)
+        self.kind = device_kind(desc, pen_reports)
+        self.tracker = ContactTracker()
+        self.stats: Counter[str] = Counter()
+        first = next(iter(self.mappings.values()), None)
+        self.surface_size: tuple[float, float] | None = None
+        if first is not None:
+            c = first.contacts[0]
+            self.surface_size = (c.width_m, c.height_m)
+
+    def _bad(self, what: str, message: str) -> list[PenSample]:
+        self.stats[what] += 1
+        if self.stats[what] <= self.LOG_FIRST:
+            log.warning("%s: %s (skipped)", self.device, message)
+        return []
+
+    def feed(self, t: float, data: bytes) -> list[PenSample]:
+        self.stats["reports"] += 1
+        if not data:
+            return self._bad("empty_reports", "empty report")
+        rid = data[0] if self.numbered else 0
+        m = self.mappings.get(rid)
+        if m is None:
+            if rid in self.known_ids:
+                self.stats["ignored"] += 1
+                return []
+            return self._bad("unknown_report_id", f"report ID {rid} is not in the descriptor")
+        if len(data) < m.decoder.byte_size:
+            return self._bad(
+                "short_reports",
+                f"report {rid} has {len(data)} bytes, the descriptor says {m.decoder.byte_size}",
+            )
+        try:
+            values = m.decoder.decode(data)
+            samples = self.tracker.samples(t, m, values)
+        except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover - defensive
+            return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
+        self.stats["samples"] += len(samples)
+        return samples

@@ -1,0 +1,80 @@
+"""HID units (HID 1.11, 6.2.2.7) -> metres and degrees.
+
+A field's physical extent is (Physical Max - Physical Min) * 10^exponent in
+the unit's base: centimetres for the SI Linear system, inches for English
+Linear, radians or degrees for the rotation systems. Only a pure length
+(length nibble 1, every other nibble 0) can give surface metres; anything
+else -- no unit, or the in^3 some firmwares declare -- means the size must
+come from the device table or the user.
+"""
+
+from __future__ import annotations
+
+import math
+
+from stiction.drivers.hid.descriptor import Field
+
+SI_LINEAR, SI_ROTATION, ENGLISH_LINEAR, ENGLISH_ROTATION = 1, 2, 3, 4
+_LENGTH_BASE_M = {SI_LINEAR: 0.01, ENGLISH_LINEAR: 0.0254}
+_ANGLE_BASE_DEG = {SI_ROTATION: 180.0 / math.pi, ENGLISH_ROTATION: 1.0}
+
+
+def _nibble(unit: int, index: int) -> int:
+    v = (unit >> (4 * index)) & 0xF
+    return v - 16 if v > 7 else v
+
+
+def physical_range(f: Field) -> tuple[int, int]:
+    """Physical min/max; both zero means 'same as logical' (HID 1.11, 6.2.2.7)."""
+    if f.physical_min == 0 and f.physical_max == 0:
+        return f.logical_min, f.logical_max
+    return f.physical_min, f.physical_max
+
+
+def metres_per_physical_unit(f: Field) -> float | None:
+    """Metres per physical unit of a length field, None if the unit is not a length."""
+    system = f.unit & 0xF
+    if system not in _LENGTH_BASE_M or _nibble(f.unit, 1) != 1:
+        return None
+    if any(_nibble(f.unit, i) for i in range(2, 8)):
+        return None
+    return _LENGTH_BASE_M[system] * 10.0**f.unit_exponent
+
+
+def extent_m(f: Field) -> float | None:
+    """The length in metres that the field's logical range spans, None if unknown."""
+    scale = metres_per_physical_unit(f)
+    if scale is None:
+        return None
+    lo, hi = physical_range(f)
+    size = (hi - lo) * scale
+    if not math.isfinite(size) or size <= 0 or f.logical_max <= f.logical_min:
+        return None
+    return size
+
+
+def degrees_per_logical(f: Field) -> float:
+    """Degrees per logical unit of an angle field (tilt).
+
+    Without a rotation unit the logical value is taken as degrees, which is
+    what tablets without one send (and what the kernel passes on).
+    """
+    system = f.unit & 0xF
+    if system in _ANGLE_BASE_DEG and _nibble(f.unit, 1) == 1 and f.logical_max > f.logical_min:
+        lo, hi = physical_range(f)
+        per_physical = _ANGLE_BASE_DEG[system] * 10.0**f.unit_exponent
+        return (hi - lo) * per_physical / (f.logical_max - f.logical_min)
+    return 1.0
+
+
+def unit_name(unit: int) -> str:
+    """A short human name ("cm", "in", "in^3", "deg", "rad", "none", or the hex value)."""
+    if unit == 0:
+        return "none"
+    system = unit & 0xF
+    names = {SI_LINEAR: "cm", ENGLISH_LINEAR: "in", SI_ROTATION: "rad", ENGLISH_ROTATION: "deg"}
+    base = names.get(system)
+    length = _nibble(unit, 1)
+    if base is None or any(_nibble(unit, i) for i in range(2, 8)) or length == 0:
+        return f"0x{unit:x}"
+    return base if length == 1 else f"{base}^{length}"
