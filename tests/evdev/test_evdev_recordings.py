@@ -177,7 +177,7 @@ def test_no_resolution_needs_a_size(evdev_data: Path) -> None:
 def test_missing_partner_file_is_a_clear_error(tmp_path: Path, evdev_data: Path) -> None:
     desc = tmp_path / "x.desc"
     desc.write_bytes((evdev_data / "synaptics-touchpad.hp8470p.desc").read_bytes())
-    with pytest.raises(RecordingError, match="no matching .events"):
+    with pytest.raises(RecordingError, match=r"no matching \.events"):
         load(desc)
     (tmp_path / "x.a.events").write_text("E: 0.1 0000 0000 0\n")
     (tmp_path / "x.b.events").write_text("E: 0.1 0000 0000 0\n")
