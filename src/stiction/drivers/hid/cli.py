@@ -1,10 +1,148 @@
-"""Command-line sub-commands of this package (see stiction.cli)."""
+"""`stiction hid describe` and `stiction hid decode` (formats in architecture.md)."""
 
 from __future__ import annotations
 
 import argparse
+import json
+import sys
 from typing import Any
+
+from stiction.errors import StictionError
+
+
+def _size(text: str) -> tuple[float, float]:
+    try:
+        w, h = (float(v) for v in text.lower().split("x"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give the active area as WIDTHxHEIGHT in millimetres, e.g. 254x158.8"
+        ) from None
+    if not (w > 0 and h > 0):
+        raise argparse.ArgumentTypeError(f"{text!r}: width and height must be > 0")
+    return w / 1000.0, h / 1000.0
+
+
+def _field_json(f: Any) -> dict[str, Any]:
+    return {
+        "usage": f.usage,
+        "bit_offset": f.bit_offset,
+        "bit_size": f.bit_size,
+        "count": f.count,
+        "logical_min": f.logical_min,
+        "logical_max": f.logical_max,
+        "physical_min": f.physical_min,
+        "physical_max": f.physical_max,
+        "unit": f.unit,
+        "unit_exponent": f.unit_exponent,
+        "variable": f.variable,
+        "constant": f.constant,
+        "relative": f.relative,
+    }
+
+
+def _describe(args: argparse.Namespace) -> int:
+    from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.drivers.hid.recording import load_recording
+    from stiction.drivers.hid.units import unit_name
+
+    rec = load_recording(args.file)
+    desc = parse_descriptor(rec.descriptor)
+    reports = sorted(desc.input_reports.values(), key=lambda r: r.report_id)
+    if args.json:
+        out = {
+            "input_reports": [
+                {
+                    "report_id": r.report_id,
+                    "bit_size": r.bit_size,
+                    "fields": [_field_json(f) for f in r.fields],
+                }
+                for r in reports
+            ]
+        }
+        print(json.dumps(out))
+        return 0
+    print(f"{rec.name} ({rec.vid:04x}:{rec.pid:04x}), descriptor {len(rec.descriptor)} bytes")
+    for r in reports:
+        print(f"input report {r.report_id}: {r.bit_size} bits, application 0x{r.application:08x}")
+        for f in r.fields:
+            kind = "const" if f.constant else ("var" if f.variable else "array")
+            unit = unit_name(f.unit)
+            print(
+                f"  bit {f.bit_offset:4d} +{f.bit_size:<3d} x{f.count:<3d}"
+                f" 0x{f.usage:08x} {kind:5s}"
+                f" logical {f.logical_min}..{f.logical_max}"
+                f" physical {f.physical_min}..{f.physical_max} unit {unit} exp {f.unit_exponent}"
+            )
+    return 0
+
+
+def _decode(args: argparse.Namespace) -> int:
+    from stiction.drivers.hid.decoder import ReportDecoder
+    from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.drivers.hid.devices import lookup
+    from stiction.drivers.hid.recording import load_recording
+    from stiction.drivers.hid.stream import ReportStream
+
+    rec = load_recording(args.file)
+    desc = parse_descriptor(rec.descriptor)
+    decoders = {rid: ReportDecoder(r) for rid, r in desc.input_reports.items()}
+    stream: ReportStream | None
+    try:
+        stream = ReportStream(desc, rec.name or args.file, args.size, lookup(rec.vid, rec.pid))
+    except StictionError as exc:
+        print(f'stiction: warning: {exc}; printing "contacts": null', file=sys.stderr)
+        stream = None
+    for ev in rec.events:
+        rid = ev.data[0] if desc.numbered and ev.data else 0
+        dec = decoders.get(rid)
+        obj: dict[str, Any] = {"time": ev.t, "report_id": rid}
+        if dec is None or len(ev.data) < dec.byte_size:
+            obj["error"] = (
+                "unknown report id" if dec is None else f"short report ({len(ev.data)} bytes)"
+            )
+            obj["fields"] = {}
+        else:
+            obj["fields"] = {f"0x{u:08x}": v for u, v in dec.values(ev.data).items()}
+        if stream is None:
+            obj["contacts"] = None
+        else:
+            obj["contacts"] = [
+                {
+                    "contact": s.contact,
+                    "x": s.x,
+                    "y": s.y,
+                    "tip": s.tip,
+                    "in_range": s.in_range,
+                    "pressure": s.pressure,
+                    "tool": s.tool.value,
+                    "tilt_x": s.tilt_x,
+                    "tilt_y": s.tilt_y,
+                    "buttons": s.buttons,
+                }
+                for s in stream.feed(ev.t, ev.data)
+            ]
+        if args.json:
+            print(json.dumps(obj))
+        else:
+            fields = " ".join(f"{k}={v}" for k, v in obj["fields"].items())
+            print(f"{ev.t:.6f} report {rid}: {fields}")
+    return 0
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
-    """Add this package's sub-commands (none yet)."""
+    hid = sub.add_parser("hid", help="inspect HID report descriptors and recordings")
+    hsub = hid.add_subparsers(dest="hid_command", metavar="SUBCOMMAND", required=True)
+    d = hsub.add_parser("describe", help="the fields of every input report of a .hid file")
+    d.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")
+    d.add_argument("--json", action="store_true", help="machine-readable output")
+    d.set_defaults(func=_describe)
+    e = hsub.add_parser("decode", help="decode every recorded report of a .hid file")
+    e.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")
+    e.add_argument("--json", action="store_true", help="one JSON object per report")
+    e.add_argument(
+        "--size",
+        type=_size,
+        metavar="WxH",
+        help="active area in mm when the descriptor and device table lack it",
+    )
+    e.set_defaults(func=_decode)
