@@ -1,10 +1,120 @@
-"""The `stictiond` entry point (placeholder until the daemon lands)."""
+"""The `stictiond` entry point: flags, config, signals, run.
+
+SIGTERM and SIGINT stop the loop at the next tick boundary and close every
+device and socket; SIGHUP re-reads the config file and the scene, keeping the
+current ones if either is bad. User mistakes print one line, no traceback.
+"""
 
 from __future__ import annotations
 
+import argparse
+import logging
+import signal
 import sys
+from collections.abc import Sequence
+from pathlib import Path
+
+from stiction import __version__
+from stiction.errors import StictionError
+
+log = logging.getLogger("stiction.daemon")
 
 
-def main() -> int:
-    print("stictiond: not implemented yet", file=sys.stderr)
-    return 1
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(
+        prog="stictiond",
+        description="Read pen tablets and touchpads, simulate stick-slip friction at a fixed "
+        "rate, publish pointer and string over ZeroMQ (docs/daemon.md, docs/protocol.md).",
+    )
+    p.add_argument("--version", action="version", version=f"stictiond {__version__}")
+    p.add_argument("--config", type=Path, metavar="FILE", help="TOML config file")
+    p.add_argument(
+        "--device",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="device: /dev/hidrawN, /dev/input/eventN, VID:PID, a name, replay:PATH, "
+        "synthetic:NAME (repeatable; default: every tablet found, else synthetic:demo)",
+    )
+    p.add_argument("--scene", type=Path, metavar="FILE", help="scene TOML (default: built-in)")
+    p.add_argument("--pub", metavar="ENDPOINT", help="publisher endpoint")
+    p.add_argument("--control", metavar="ENDPOINT", help="control endpoint")
+    p.add_argument(
+        "--clock",
+        choices=("real", "virtual"),
+        help="real: live, at the tick rate; virtual: replay as fast as possible and exit",
+    )
+    p.add_argument("--rate", type=float, metavar="HZ", help="tick rate (default 100)")
+    p.add_argument("--seconds", type=float, metavar="S", help="stop after S seconds of ticks")
+    p.add_argument("--integrator", help="simulator integrator (see stiction simulate)")
+    p.add_argument("--hwm", type=int, help="PUB high-water mark per subscriber (messages)")
+    p.add_argument("--curve-secret-key", type=Path, metavar="FILE", help="daemon .key_secret")
+    p.add_argument("--curve-authorized", type=Path, metavar="DIR", help="authorised client keys")
+    p.add_argument(
+        "--curve-required", action="store_true", help="use CURVE on loopback endpoints too"
+    )
+    p.add_argument("--no-hotplug", action="store_true", help="do not watch for devices")
+    p.add_argument("--log-format", choices=("text", "json"), default="text")
+    p.add_argument("-v", "--verbose", action="count", default=0)
+    return p
+
+
+def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+    from stiction.daemon.config import load_options
+    from stiction.daemon.devices import DeviceConfig
+    from stiction.daemon.security import CurveConfig
+    from stiction.daemon.service import Options
+
+    opts = load_options(args.config) if args.config else Options()
+    if args.device:
+        known = {d.spec: d for d in opts.devices}
+        opts.devices = [known.get(spec, DeviceConfig(spec)) for spec in args.device]
+    if args.scene:
+        opts.scene = args.scene
+        opts.scene_from_flag = True
+    for name in ("pub", "control", "clock", "rate", "seconds", "integrator", "hwm"):
+        value = getattr(args, name)
+        if value is not None:
+            setattr(opts, name, value)
+    if args.curve_secret_key or args.curve_authorized or args.curve_required:
+        opts.curve = CurveConfig(
+            secret_key=args.curve_secret_key or opts.curve.secret_key,
+            authorized_keys=args.curve_authorized or opts.curve.authorized_keys,
+            required=args.curve_required or opts.curve.required,
+        )
+    if args.no_hotplug:
+        opts.hotplug = False
+    return opts
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    args = build_parser().parse_args(argv)
+    from stiction.daemon import logs
+
+    logs.setup(args.log_format, args.verbose)
+    try:
+        from stiction.daemon.service import Daemon
+
+        daemon = Daemon(options_from_args(args))
+        daemon.open()
+    except StictionError as exc:
+        print(f"stictiond: error: {exc}", file=sys.stderr)
+        return 2
+    previous = {
+        sig: signal.signal(sig, lambda *_: daemon.request_stop())
+        for sig in (signal.SIGTERM, signal.SIGINT)
+    }
+    previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, lambda *_: daemon.request_reload())
+    try:
+        return daemon.run()
+    except StictionError as exc:
+        print(f"stictiond: error: {exc}", file=sys.stderr)
+        return 2
+    finally:
+        daemon.close()
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

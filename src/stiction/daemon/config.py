@@ -1,0 +1,217 @@
+"""The daemon's TOML config file, validated with file:line:key errors.
+
+Flags override the file; the file overrides the built-in defaults. Relative
+paths in the file (scene, keys) are relative to the file, so a config and
+its scene can be moved together.
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, NoReturn
+
+from stiction.daemon.devices import DeviceConfig
+from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
+from stiction.daemon.security import CurveConfig
+from stiction.daemon.service import Options
+from stiction.errors import StictionError
+from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
+
+
+class ConfigError(StictionError):
+    """A config file that cannot be used; the message names file, line and key."""
+
+
+_DAEMON_KEYS = {
+    "rate",
+    "clock",
+    "pub",
+    "control",
+    "scene",
+    "display",
+    "hwm",
+    "late_threshold_ms",
+    "hotplug",
+}
+_SIM_KEYS = {"integrator", "substeps", "k", "m", "g", "mu_s", "mu_k", "C_l"}
+_CURVE_KEYS = {"secret_key", "authorized_keys", "required"}
+_DEVICE_KEYS = {
+    "spec",
+    "mapping",
+    "aspect",
+    "rotate",
+    "surface_size",
+    "surface_area",
+    "screen_area",
+    "gain",
+    "grab",
+}
+
+
+class _Reader:
+    def __init__(self, path: Path, text: str) -> None:
+        self.file = path
+        self.lines = field_lines(text)
+
+    def fail(self, where: FieldPath, message: str) -> NoReturn:
+        line = line_of(self.lines, where)
+        loc = f"{self.file}:{line}" if line else str(self.file)
+        raise ConfigError(f"{loc}: {format_path(where)}: {message}")
+
+    def table(self, data: Any, where: FieldPath, keys: set[str]) -> Mapping[str, Any]:
+        if not isinstance(data, dict):
+            self.fail(where, "must be a table")
+        for key in data:
+            if key not in keys:
+                self.fail((*where, key), f"unknown key; expected one of {', '.join(sorted(keys))}")
+        return data
+
+    def number(self, value: Any, where: FieldPath, positive: bool = True) -> float:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            self.fail(where, f"must be a number, got {value!r}")
+        if not math.isfinite(value) or (positive and value <= 0):
+            self.fail(where, f"must be a positive finite number, got {value!r}")
+        return float(value)
+
+    def string(self, value: Any, where: FieldPath) -> str:
+        if not isinstance(value, str) or not value:
+            self.fail(where, f"must be a non-empty string, got {value!r}")
+        return value
+
+    def numbers(self, value: Any, where: FieldPath, n: int) -> tuple[float, ...]:
+        if not isinstance(value, list) or len(value) != n:
+            self.fail(where, f"must be an array of {n} numbers, got {value!r}")
+        return tuple(self.number(v, where, positive=False) for v in value)
+
+    def path(self, value: Any, where: FieldPath) -> Path:
+        p = Path(self.string(value, where)).expanduser()
+        return p if p.is_absolute() else (self.file.parent / p)
+
+
+def load_options(path: Path, base: Options | None = None) -> Options:
+    """Read a config file into Options (starting from `base`)."""
+    try:
+        text = path.read_text(encoding="utf-8")
+        data = tomllib.loads(text)
+    except OSError as exc:
+        raise ConfigError(f"{path}: cannot read config: {exc}") from None
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    r = _Reader(path, text)
+    r.table(data, (), {"daemon", "sim", "curve", "devices"})
+    opts = base if base is not None else Options()
+    opts.config_path = path
+
+    d = r.table(data.get("daemon", {}), ("daemon",), _DAEMON_KEYS)
+    if "rate" in d:
+        opts.rate = r.number(d["rate"], ("daemon", "rate"))
+    if "clock" in d:
+        if d["clock"] not in ("real", "virtual"):
+            r.fail(("daemon", "clock"), f"must be 'real' or 'virtual', got {d['clock']!r}")
+        opts.clock = d["clock"]
+    for key in ("pub", "control"):
+        if key in d:
+            setattr(opts, key, r.string(d[key], ("daemon", key)))
+    if "scene" in d:
+        opts.scene = r.path(d["scene"], ("daemon", "scene"))
+    if "display" in d:
+        w, h = r.numbers(d["display"], ("daemon", "display"), 2)
+        if w <= 0 or h <= 0 or w != int(w) or h != int(h):
+            r.fail(("daemon", "display"), "must be [width, height] in whole pixels > 0")
+        opts.display = (int(w), int(h))
+    if "hwm" in d:
+        hwm = r.number(d["hwm"], ("daemon", "hwm"))
+        opts.hwm = int(hwm)
+    if "late_threshold_ms" in d:
+        opts.late_threshold_ms = r.number(d["late_threshold_ms"], ("daemon", "late_threshold_ms"))
+    if "hotplug" in d:
+        if not isinstance(d["hotplug"], bool):
+            r.fail(("daemon", "hotplug"), "must be true or false")
+        opts.hotplug = d["hotplug"]
+
+    s = r.table(data.get("sim", {}), ("sim",), _SIM_KEYS)
+    if "integrator" in s:
+        opts.integrator = r.string(s["integrator"], ("sim", "integrator"))
+    if "substeps" in s:
+        n = s["substeps"]
+        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+            r.fail(("sim", "substeps"), f"must be a whole number >= 1, got {n!r}")
+        opts.substeps = n
+    opts.params = {
+        k: r.number(v, ("sim", k), positive=k not in ("mu_s", "mu_k"))
+        for k, v in s.items()
+        if k not in ("integrator", "substeps")
+    }
+
+    c = r.table(data.get("curve", {}), ("curve",), _CURVE_KEYS)
+    required = c.get("required", False)
+    if not isinstance(required, bool):
+        r.fail(("curve", "required"), "must be true or false")
+    opts.curve = CurveConfig(
+        secret_key=r.path(c["secret_key"], ("curve", "secret_key")) if "secret_key" in c else None,
+        authorized_keys=r.path(c["authorized_keys"], ("curve", "authorized_keys"))
+        if "authorized_keys" in c
+        else None,
+        required=required,
+    )
+
+    devices = data.get("devices", [])
+    if not isinstance(devices, list):
+        r.fail(("devices",), "must be an array of [[devices]] tables")
+    opts.devices = [_device(r, i, raw) for i, raw in enumerate(devices)]
+    return opts
+
+
+def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
+    where: FieldPath = ("devices", index)
+    t = r.table(raw, where, _DEVICE_KEYS)
+    if "spec" not in t:
+        r.fail(where, 'missing \'spec\' (e.g. spec = "/dev/hidraw3" or "synthetic:demo")')
+    mode = t.get("mapping", "area")
+    if mode == "absolute":
+        mode = "area"
+    if mode not in MODES:
+        r.fail((*where, "mapping"), f"must be area, absolute or relative, got {mode!r}")
+    aspect = t.get("aspect", "keep")
+    if aspect not in ASPECTS:
+        r.fail((*where, "aspect"), f"must be keep or stretch, got {aspect!r}")
+    rotate = t.get("rotate", 0)
+    if rotate not in ROTATIONS or isinstance(rotate, bool):
+        r.fail((*where, "rotate"), f"must be 0, 90, 180 or 270, got {rotate!r}")
+
+    def rect(key: str) -> tuple[float, float, float, float] | None:
+        if key not in t:
+            return None
+        x, y, w, h = r.numbers(t[key], (*where, key), 4)
+        if w <= 0 or h <= 0:
+            r.fail((*where, key), "width and height must be positive")
+        return (x, y, w, h)
+
+    size = None
+    if "surface_size" in t:
+        sw, sh = r.numbers(t["surface_size"], (*where, "surface_size"), 2)
+        if sw <= 0 or sh <= 0 or sw > 10 or sh > 10:
+            r.fail((*where, "surface_size"), "must be [width, height] in metres (0 < size <= 10)")
+        size = (sw, sh)
+    grab = t.get("grab", False)
+    if not isinstance(grab, bool):
+        r.fail((*where, "grab"), "must be true or false")
+    mapping = MappingConfig(
+        mode=mode,
+        aspect=aspect,
+        rotate=int(rotate),
+        surface_area=rect("surface_area"),
+        screen_area=rect("screen_area"),
+        gain=r.number(t["gain"], (*where, "gain")) if "gain" in t else 1.0,
+    )
+    mapping_given = "mapping" in t
+    return DeviceConfig(
+        spec=r.string(t["spec"], (*where, "spec")),
+        mapping=mapping,
+        mapping_given=mapping_given,
+        surface_size=size,
+        grab=grab,
+    )

@@ -1,0 +1,324 @@
+"""Devices: what a spec names, how it is opened, read and mapped onto the loop clock.
+
+Each live device has a reader thread that blocks in the driver's
+``samples()`` and appends every sample, stamped with the monotonic time it
+arrived, to a deque; the loop takes everything up to the tick time without
+ever blocking on a device. A device that goes away (the driver raises
+DeviceError) is marked absent; its contacts end with phase "up" and the
+hot-plug watcher reopens it when it comes back.
+
+Sample times come from the device's clock (the kernel's event time, a
+recording's time base) and are mapped onto the loop clock per device: the
+offset is the smallest ``arrival - sample time`` seen (the fastest delivery),
+creeping up slowly so clock drift is followed and a clock step is re-learnt.
+"""
+
+from __future__ import annotations
+
+import collections
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from stiction.daemon.mapping import MappingConfig
+from stiction.daemon.stats import RateMeter
+from stiction.drivers.sample import PenSample
+from stiction.drivers.source import SampleSource
+from stiction.errors import DeviceError, StictionError
+
+log = logging.getLogger("stiction.daemon.devices")
+
+STEP_RESET_S = 1.0
+"""A device clock that jumps by more than this against the loop clock is re-learnt."""
+OFFSET_CREEP = 1e-3
+"""Per-sample fraction by which the offset follows a later delivery (drift)."""
+
+
+@dataclass(frozen=True, slots=True)
+class DeviceConfig:
+    """One [[devices]] entry (or a --device flag with the defaults)."""
+
+    spec: str
+    mapping: MappingConfig = field(default_factory=MappingConfig)
+    mapping_given: bool = False
+    surface_size: tuple[float, float] | None = None
+    grab: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class Spec:
+    """A parsed device spec: `kind` is synthetic, replay, hidraw, evdev, vidpid or name."""
+
+    kind: str
+    target: str
+    extra: str | None = None
+
+    @property
+    def finite(self) -> bool:
+        """Replays and synthetic strokes can run under the virtual clock."""
+        return self.kind in ("synthetic", "replay")
+
+
+def parse_spec(text: str) -> Spec:
+    """``synthetic:NAME``, ``replay:PATH[,EVENTS]``, ``/dev/hidrawN``,
+    ``/dev/input/eventN``, ``hid:PATH|VID:PID``, ``evdev:PATH``, ``VID:PID``,
+    ``name:TEXT`` or any other text as a name to match."""
+    t = text.strip()
+    if not t:
+        raise StictionError("empty device spec")
+    head, sep, rest = t.partition(":")
+    if sep and head == "synthetic":
+        return Spec("synthetic", rest or "demo")
+    if sep and head == "replay":
+        if not rest:
+            raise StictionError("replay: needs a recording path (replay:PATH)")
+        path, _, events = rest.partition(",")
+        return Spec("replay", path, events or None)
+    if sep and head == "hid":
+        return Spec("hidraw", rest)
+    if sep and head == "evdev":
+        return Spec("evdev", rest)
+    if sep and head == "name":
+        return Spec("name", rest)
+    if t.startswith("/dev/hidraw"):
+        return Spec("hidraw", t)
+    if t.startswith("/dev/input/"):
+        return Spec("evdev", t)
+    if (
+        len(head) == 4
+        and len(rest) == 4
+        and all(c in "0123456789abcdefABCDEF" for c in head + rest)
+    ):
+        return Spec("vidpid", t.lower())
+    return Spec("name", t)
+
+
+def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> SampleSource:
+    """Open what a spec names with the matching driver factory."""
+    size = cfg.surface_size
+    if spec.kind == "synthetic":
+        from stiction.drivers.fake import synthetic
+
+        return synthetic(spec.target, realtime=realtime, loop=loop)
+    if spec.kind == "replay":
+        path = Path(spec.target)
+        if not path.exists():
+            raise DeviceError(f"replay: no such recording {path}")
+        if path.suffix == ".hid":
+            from stiction.drivers import hid
+
+            return hid.replay(path, realtime=realtime, size_m=size)
+        from stiction.drivers import evdev
+
+        size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
+        return evdev.replay(path, spec.extra, realtime=realtime, size_mm=size_mm)
+    if spec.kind in ("hidraw", "vidpid"):
+        from stiction.drivers import hid
+
+        return hid.open_hidraw(spec.target, size_m=size)
+    if spec.kind == "evdev":
+        from stiction.drivers import evdev
+
+        size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
+        return evdev.open_device(spec.target, grab=cfg.grab, size_mm=size_mm)
+    # A name: the first usable discovered device whose name contains it.
+    from stiction.drivers.cli import discover_all
+
+    want = spec.target.lower()
+    for info in discover_all():
+        if want in info.name.lower() and info.problem is None:
+            kind = "hidraw" if info.backend == "hidraw" else "evdev"
+            return open_source(Spec(kind, info.path), cfg, realtime, loop)
+    raise DeviceError(f"no device named like {spec.target!r} is present")
+
+
+class ClockMap:
+    """Maps one device's sample times onto the loop's monotonic clock."""
+
+    def __init__(self) -> None:
+        self.offset: float | None = None
+        self.steps = 0
+
+    def observe(self, sample_t: float, arrival: float) -> None:
+        d = arrival - sample_t
+        if self.offset is None or abs(d - self.offset) > STEP_RESET_S:
+            if self.offset is not None:
+                self.steps += 1
+            self.offset = d
+        elif d < self.offset:
+            self.offset = d
+        else:
+            self.offset += (d - self.offset) * OFFSET_CREEP
+
+    def to_loop(self, sample_t: float) -> float:
+        return sample_t + (self.offset or 0.0)
+
+
+Arrival = tuple[PenSample, float]
+
+
+@dataclass(eq=False)
+class DeviceSlot:
+    """One configured device and everything the loop knows about it."""
+
+    config: DeviceConfig
+    spec: Spec
+    name: str
+    state: str = "absent"  # "open" | "absent" | "ended"
+    source: SampleSource | None = None
+    kind: str = "pen"
+    surface_size: tuple[float, float] | None = None
+    queue: collections.deque[Arrival] = field(default_factory=collections.deque)
+    pending: collections.deque[Arrival] = field(default_factory=collections.deque)
+    clock: ClockMap = field(default_factory=ClockMap)
+    samples: int = 0
+    rejected: int = 0
+    errors: int = 0
+    reopened: int = 0
+    meter: RateMeter = field(default_factory=RateMeter)
+    last_t: float = -math.inf
+    went_away: bool = False
+    """Set by the reader when the device left; the loop ends its contacts."""
+    run: Any = None
+    """The pipeline's per-device contact state (stiction.scene.pipeline.DeviceRun)."""
+    thread: threading.Thread | None = None
+    iterator: Iterator[PenSample] | None = None
+    lookahead: PenSample | None = None
+
+    def driver_stats(self) -> dict[str, int]:
+        if self.source is None:
+            return {}
+        try:
+            return dict(self.source.stats())
+        except Exception:  # a driver's stats must never break the stats reply
+            return {}
+
+
+def valid(s: PenSample) -> bool:
+    return math.isfinite(s.t) and math.isfinite(s.x) and math.isfinite(s.y)
+
+
+def start_reader(slot: DeviceSlot, on_gone: Callable[[DeviceSlot], None]) -> None:
+    """Read `slot.source` on a thread until it ends, fails or is closed."""
+    source = slot.source
+    assert source is not None
+    queue = slot.queue
+
+    def run() -> None:
+        try:
+            for s in source.samples():
+                queue.append((s, time.monotonic()))
+            if slot.state == "open":
+                slot.state = "ended"
+                log.info("device_ended device=%s", slot.name)
+        except DeviceError as exc:
+            slot.errors += 1
+            log.warning("device_gone device=%s error=%s", slot.name, exc)
+            slot.state = "absent"
+            on_gone(slot)
+        except Exception:
+            slot.errors += 1
+            log.exception("device_reader_failed device=%s", slot.name)
+            slot.state = "absent"
+            on_gone(slot)
+        finally:
+            slot.went_away = True
+
+    slot.went_away = False
+    slot.thread = threading.Thread(target=run, name=f"reader {slot.name}", daemon=True)
+    slot.thread.start()
+
+
+def take_live(slot: DeviceSlot, prev_t: float, t: float) -> tuple[list[PenSample], float | None]:
+    """Everything that arrived for `slot`, mapped onto the loop clock, up to tick `t`.
+
+    Samples whose mapped time lies after `t` wait for the next tick; a sample
+    mapped at or before the previous tick (clock jitter) is placed just after
+    it so that none is lost. Returns the samples and the arrival time of the
+    newest one handed over (for the latency statistic).
+    """
+    q = slot.queue
+    pending = slot.pending
+    while q:
+        s, arrival = q.popleft()
+        if not valid(s):
+            slot.rejected += 1
+            continue
+        slot.clock.observe(s.t, arrival)
+        pending.append((s, arrival))
+    out: list[PenSample] = []
+    newest: float | None = None
+    floor = math.nextafter(prev_t, math.inf)
+    while pending:
+        s, arrival = pending[0]
+        lt = slot.clock.to_loop(s.t)
+        if lt > t:
+            break
+        pending.popleft()
+        lt = max(lt, floor, slot.last_t)
+        slot.last_t = lt
+        out.append(_retime(s, lt))
+        newest = arrival
+    slot.samples += len(out)
+    return out, newest
+
+
+def take_virtual(slot: DeviceSlot, t: float) -> list[PenSample]:
+    """Pull samples from a finite source up to loop time `t` (virtual clock)."""
+    out: list[PenSample] = []
+    it = slot.iterator
+    if it is None:
+        return out
+    while True:
+        s = slot.lookahead
+        if s is None:
+            try:
+                s = next(it)
+            except StopIteration:
+                slot.iterator = None
+                slot.state = "ended"
+                slot.went_away = True
+                break
+            except DeviceError as exc:
+                slot.errors += 1
+                log.warning("device_gone device=%s error=%s", slot.name, exc)
+                slot.iterator = None
+                slot.state = "ended"
+                slot.went_away = True
+                break
+            if not valid(s):
+                slot.rejected += 1
+                continue
+        lt = slot.clock.to_loop(s.t)
+        if lt > t:
+            slot.lookahead = s
+            break
+        slot.lookahead = None
+        lt = max(lt, slot.last_t)
+        slot.last_t = lt
+        out.append(_retime(s, lt))
+    slot.samples += len(out)
+    return out
+
+
+def _retime(s: PenSample, t: float) -> PenSample:
+    if t == s.t:
+        return s
+    return PenSample(
+        t=t,
+        x=s.x,
+        y=s.y,
+        tip=s.tip,
+        in_range=s.in_range,
+        contact=s.contact,
+        pressure=s.pressure,
+        tool=s.tool,
+        tilt_x=s.tilt_x,
+        tilt_y=s.tilt_y,
+        buttons=s.buttons,
+    )

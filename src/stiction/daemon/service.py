@@ -1,0 +1,515 @@
+"""The daemon: devices in, one scene pipeline, frames out, at a fixed rate.
+
+`Daemon.run` is the loop. Each tick it takes every sample each device
+delivered since the previous tick (never waiting for a device), advances the
+scene pipeline to the tick time, publishes one frame per device, and spends
+the rest of the period answering control requests and sleeping to the next
+absolute deadline. Anything a user or device can get wrong is logged and
+counted; the loop keeps the last good state and carries on.
+"""
+
+from __future__ import annotations
+
+import logging
+import math
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import zmq
+
+from stiction import __version__, protocol
+from stiction.daemon.clock import Clock, RealClock, Schedule, VirtualClock
+from stiction.daemon.control import ControlServer
+from stiction.daemon.devices import (
+    DeviceConfig,
+    DeviceSlot,
+    open_source,
+    parse_spec,
+    start_reader,
+    take_live,
+    take_virtual,
+)
+from stiction.daemon.mapping import MappingConfig, make_mapping
+from stiction.daemon.publisher import Publisher
+from stiction.daemon.security import CurveConfig, Guard
+from stiction.daemon.stats import Window
+from stiction.errors import StictionError
+from stiction.scene.backend import SimulatorBackend
+from stiction.scene.load import DEFAULT_DISPLAY, default_scene, load_scene, parse_scene
+from stiction.scene.model import Scene
+from stiction.scene.pipeline import DeviceRun, Pipeline
+
+log = logging.getLogger("stiction.daemon")
+
+CONTROL_MARGIN_S = 0.0015
+"""Stop waiting for control requests this long before a deadline and sleep the rest,
+so control traffic never delays a tick."""
+
+
+@dataclass
+class Options:
+    """Everything the daemon is configured with (config file and flags merged)."""
+
+    rate: float = 100.0
+    clock: str = "real"
+    pub: str = protocol.DEFAULT_PUB
+    control: str = protocol.DEFAULT_CONTROL
+    scene: Path | None = None
+    display: tuple[int, int] = DEFAULT_DISPLAY
+    devices: list[DeviceConfig] = field(default_factory=list)
+    params: dict[str, float] = field(default_factory=dict)
+    integrator: str = "default"
+    substeps: int = 1
+    hwm: int = 1000
+    late_threshold_ms: float | None = None
+    seconds: float | None = None
+    curve: CurveConfig = field(default_factory=CurveConfig)
+    hotplug: bool = True
+    config_path: Path | None = None
+    scene_from_flag: bool = False
+
+
+class Daemon:
+    def __init__(self, opts: Options, ctx: zmq.Context[Any] | None = None) -> None:
+        self.opts = opts
+        self.virtual = opts.clock == "virtual"
+        if opts.clock not in ("real", "virtual"):
+            raise StictionError(f"clock must be 'real' or 'virtual', got {opts.clock!r}")
+        self.backend = SimulatorBackend(opts.integrator, opts.substeps)
+        self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
+        scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
+        self.pipeline = Pipeline(scene, self.backend, self.defaults)
+        self.clock: Clock = VirtualClock() if self.virtual else RealClock()
+        self._own_ctx = ctx is None
+        self.ctx: zmq.Context[Any] = ctx if ctx is not None else zmq.Context()
+        self.guard = Guard(self.ctx, opts.curve)
+        self.publisher: Publisher | None = None
+        self.control: ControlServer | None = None
+        self.slots: list[DeviceSlot] = []
+        self.schedule = Schedule(opts.rate, 0.0, _ms(opts.late_threshold_ms))
+        self.last_tick = -1
+        self.last_frames: dict[str, dict[str, Any]] = {}
+        self.jitter = Window()
+        self.latency = Window()
+        self.cost = Window()
+        self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
+        self._stop = threading.Event()
+        self._reload = threading.Event()
+        self._started = time.monotonic()
+        self.hotplug: Any = None
+        self.on_tick: Callable[[int], None] | None = None
+        """Test hook: called after each published tick with its number."""
+
+    # ------------------------------------------------------------ set-up
+    def open(self) -> None:
+        """Bind sockets and open devices; errors here are the user's to fix."""
+        try:
+            self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
+            self.control = ControlServer(self.ctx, self.opts.control, self.guard, self)
+        except BaseException:
+            self.close()
+            raise
+        configs = self.opts.devices or _auto_devices()
+        names: set[str] = set()
+        for cfg in configs:
+            spec = parse_spec(cfg.spec)
+            if self.virtual and not spec.finite:
+                raise StictionError(
+                    f"--clock virtual needs replay: or synthetic: devices, not {cfg.spec!r}"
+                )
+            slot = DeviceSlot(config=cfg, spec=spec, name=cfg.spec)
+            self.slots.append(slot)
+            try:
+                self._install(slot, open_source(spec, cfg, not self.virtual, not self.virtual))
+            except StictionError as exc:
+                if spec.finite:
+                    raise
+                log.warning("device_absent spec=%s error=%s (watching for it)", cfg.spec, exc)
+            if slot.name in names:
+                slot.name = f"{slot.name}#{len(self.slots)}"
+            names.add(slot.name)
+        if self.virtual:
+            self._align_virtual()
+        elif self.opts.hotplug and any(not s.spec.finite for s in self.slots):
+            from stiction.daemon.hotplug import Hotplug
+
+            self.hotplug = Hotplug(lambda: self.slots)
+            self.hotplug.start()
+        log.info(
+            "started pub=%s control=%s rate=%s clock=%s scene=%s devices=%s",
+            self.publisher.endpoint,
+            self.control.endpoint,
+            self.opts.rate,
+            self.opts.clock,
+            self.pipeline.scene.source,
+            ",".join(s.name for s in self.slots),
+        )
+
+    def _install(self, slot: DeviceSlot, source: Any) -> None:
+        """Make an opened source the slot's device: mapping, contact state, reader."""
+        kind = getattr(source, "kind", "pen")
+        size = slot.config.surface_size or source.surface_size
+        slot.kind = kind
+        cfg = self._mapping_config(slot)
+        try:
+            mapping = make_mapping(size, self.pipeline.scene.display, cfg, source.name)
+        except StictionError:
+            source.close()
+            raise
+        if slot.source is None and slot.name == slot.config.spec:
+            slot.name = source.name
+        slot.source = source
+        slot.kind = kind
+        slot.surface_size = size
+        slot.run = DeviceRun(mapping)
+        slot.state = "open"
+        slot.went_away = False
+        if self.virtual:
+            slot.iterator = iter(source.samples())
+        else:
+            start_reader(slot, lambda s: None)
+
+    @staticmethod
+    def _mapping_config(slot: DeviceSlot) -> MappingConfig:
+        """Touchpads default to relative mapping, everything else to area mapping."""
+        if not slot.config.mapping_given and slot.kind == "touchpad":
+            return MappingConfig(mode="relative")
+        return slot.config.mapping
+
+    def _align_virtual(self) -> None:
+        """Virtual time is the first device's recorded time; others start with it."""
+        t0: float | None = None
+        for slot in self.slots:
+            if slot.iterator is None:
+                continue
+            try:
+                first = next(slot.iterator)
+            except StopIteration:
+                slot.iterator = None
+                slot.state = "ended"
+                continue
+            slot.lookahead = first
+            if t0 is None:
+                t0 = first.t
+            slot.clock.offset = t0 - first.t
+        start = t0 if t0 is not None else 0.0
+        self.clock = VirtualClock(start)
+        self.schedule = Schedule(self.opts.rate, start, _ms(self.opts.late_threshold_ms))
+
+    def _adopt(self) -> None:
+        """Install devices the hot-plug watcher reopened (loop thread only)."""
+        hp = self.hotplug
+        if hp is None:
+            return
+        while not hp.ready.empty():
+            slot, source = hp.ready.get_nowait()
+            try:
+                self._install(slot, source)
+                slot.reopened += 1
+                log.info("device_reopened device=%s", slot.name)
+            except StictionError as exc:
+                log.warning("reopen_refused device=%s error=%s", slot.name, exc)
+            hp.installed(slot)
+
+    def close(self) -> None:
+        if self.hotplug is not None:
+            self.hotplug.stop()
+        for slot in self.slots:
+            if slot.source is not None:
+                try:
+                    slot.source.close()
+                except Exception:
+                    log.exception("device_close_failed device=%s", slot.name)
+        for slot in self.slots:
+            if slot.thread is not None:
+                slot.thread.join(timeout=1.0)
+        if self.control is not None:
+            self.control.close()
+            self.control = None
+        if self.publisher is not None:
+            self.publisher.close()
+            self.publisher = None
+        self.guard.close()
+        if self._own_ctx:
+            self.ctx.term()
+
+    # ------------------------------------------------------------ control flags
+    def request_stop(self) -> None:
+        self._stop.set()
+
+    def request_reload(self) -> None:
+        self._reload.set()
+
+    # ------------------------------------------------------------ the loop
+    def run(self) -> int:
+        assert self.publisher is not None
+        self._publish_scene()
+        if not self.virtual:
+            self.schedule = Schedule(
+                self.opts.rate, self.clock.now() + 0.01, _ms(self.opts.late_threshold_ms)
+            )
+        limit = None if self.opts.seconds is None else round(self.opts.seconds * self.opts.rate)
+        prev_t = -math.inf
+        while not self._stop.is_set():
+            if limit is not None and self.schedule.ticks >= limit:
+                break
+            deadline = self.schedule.deadline
+            self._wait(deadline)
+            woke = self.clock.now()
+            lateness = self.schedule.begin(woke)
+            if not self.virtual:
+                self.jitter.add(lateness)
+            if self._reload.is_set():
+                self._reload.clear()
+                self.reload()
+            self._adopt()
+            self._tick(deadline, prev_t)
+            prev_t = deadline
+            done = self.clock.now()
+            if not self.virtual:
+                self.cost.add(done - woke)
+            self.schedule.finish(done)
+            if self.on_tick is not None:
+                self.on_tick(self.last_tick)
+            if self.virtual and all(s.run is None for s in self.slots):
+                break
+        log.info(
+            "stopped ticks=%d late=%d skipped=%d",
+            self.schedule.ticks,
+            self.schedule.late,
+            self.schedule.skipped,
+        )
+        return 0
+
+    def _wait(self, deadline: float) -> None:
+        control = self.control
+        if self.virtual:
+            if control is not None:
+                control.serve(0)
+            self.clock.sleep_until(deadline)
+            return
+        while control is not None:
+            remaining = deadline - time.monotonic() - CONTROL_MARGIN_S
+            if remaining < 0.0005:
+                break
+            control.serve(remaining)
+        self.clock.sleep_until(deadline)
+
+    def _tick(self, t: float, prev_t: float) -> None:
+        pub = self.publisher
+        assert pub is not None
+        tick = self.schedule.ticks
+        for slot in self.slots:
+            run = slot.run
+            if run is None:
+                continue
+            newest: float | None = None
+            if self.virtual:
+                samples = take_virtual(slot, t)
+                finished = slot.iterator is None
+            else:
+                samples, newest = take_live(slot, prev_t, t)
+                finished = slot.went_away and not slot.queue and not slot.pending
+            if samples:
+                slot.meter.add(len(samples), t)
+            try:
+                contacts = self.pipeline.step(run, t, prev_t, samples)
+            except StictionError as exc:
+                # A sample the simulator refuses must not stop the loop.
+                slot.errors += 1
+                log.warning("step_failed device=%s error=%s", slot.name, exc)
+                contacts = []
+            if finished:
+                contacts.extend(self.pipeline.end_all(run))
+            frame: dict[str, Any] = {
+                "v": protocol.SCHEMA_VERSION,
+                "kind": protocol.KIND_FRAME,
+                "tick": tick,
+                "t": t,
+                "t_input": slot.last_t if math.isfinite(slot.last_t) else None,
+                "device": slot.name,
+                "contacts": contacts,
+            }
+            pub.send(protocol.frame_topic(slot.name), frame)
+            self.last_frames[slot.name] = frame
+            if newest is not None:
+                self.latency.add(time.monotonic() - newest)
+            if finished:
+                slot.run = None
+                if slot.state == "open":
+                    slot.state = "ended" if slot.spec.finite else "absent"
+                if slot.source is not None:
+                    slot.source.close()
+                log.info("device_stopped device=%s state=%s", slot.name, slot.state)
+        self.last_tick = tick
+
+    # ------------------------------------------------------------ scene and params
+    def _publish_scene(self) -> None:
+        assert self.publisher is not None
+        msg = protocol.scene_message(self.pipeline.wire(), self.last_tick)
+        self.publisher.send(protocol.TOPIC_SCENE, msg)
+
+    def set_scene(self, scene: Scene) -> None:
+        """Compile and switch to `scene`; on any error the current scene stays."""
+        try:
+            pipeline = Pipeline(scene, self.backend, self.defaults)
+        except StictionError:
+            self.counters["scene_errors"] += 1
+            raise
+        old_display = self.pipeline.scene.display
+        self.pipeline = pipeline
+        self.counters["scene_loads"] += 1
+        if scene.display != old_display:
+            for slot in self.slots:
+                if slot.run is not None:
+                    cfg = self._mapping_config(slot)
+                    slot.run.mapping = make_mapping(
+                        slot.surface_size, scene.display, cfg, slot.name
+                    )
+        log.info("scene_loaded name=%s source=%s", scene.name, scene.source)
+        self._publish_scene()
+
+    def load_scene_text(self, text: str, source: str) -> Scene:
+        try:
+            return parse_scene(text, source)
+        except StictionError:
+            self.counters["scene_errors"] += 1
+            raise
+
+    def load_scene_file(self, path: Path) -> Scene:
+        try:
+            return load_scene(path)
+        except StictionError:
+            self.counters["scene_errors"] += 1
+            raise
+
+    def set_params(self, values: dict[str, Any], material: str | None) -> None:
+        """Change material parameters; refused as a whole if any value is invalid."""
+        from stiction.daemon.params import apply_params
+
+        scene, defaults = apply_params(self.pipeline.scene, self.defaults, values, material)
+        pipeline = Pipeline(scene, self.backend, defaults)
+        self.pipeline = pipeline
+        self.defaults = defaults
+        log.info("params_set material=%s values=%s", material, values)
+        self._publish_scene()
+
+    def reload(self) -> None:
+        """SIGHUP: re-read the config's run-time settings and the scene; keep them on error."""
+        from stiction.daemon.config import load_options
+
+        self.counters["reloads"] += 1
+        opts = self.opts
+        if opts.config_path is not None:
+            try:
+                new = load_options(opts.config_path)
+            except StictionError as exc:
+                log.error("reload_failed config=%s error=%s", opts.config_path, exc)
+                return
+            if new.scene is not None and not opts.scene_from_flag:
+                opts.scene = new.scene
+            opts.params = new.params
+            self.guard.reload_keys()
+        try:
+            scene = (
+                self.load_scene_file(opts.scene)
+                if opts.scene
+                else default_scene(self.pipeline.scene.display)
+            )
+            self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
+            self.set_scene(scene)
+        except StictionError as exc:
+            log.error(
+                "reload_failed scene=%s error=%s (keeping the current scene)", opts.scene, exc
+            )
+
+    # ------------------------------------------------------------ replies
+    def stats(self) -> dict[str, Any]:
+        pub = self.publisher
+        devices: dict[str, Any] = {}
+        for slot in self.slots:
+            devices[slot.name] = {
+                "state": slot.state,
+                "samples": slot.samples,
+                "rate_hz": round(slot.meter.rate, 2),
+                "rejected": slot.rejected,
+                "errors": slot.errors,
+                "reopened": slot.reopened,
+                "clock_steps": slot.clock.steps,
+                "driver": slot.driver_stats(),
+            }
+        control = self.control
+        return {
+            "uptime_s": round(time.monotonic() - self._started, 3),
+            "rate": self.opts.rate,
+            "clock": self.opts.clock,
+            "ticks": self.schedule.ticks,
+            "late_ticks": self.schedule.late,
+            "skipped_deadlines": self.schedule.skipped,
+            "late_threshold_ms": self.schedule.late_threshold * 1e3,
+            "jitter_ms": self.jitter.summary(1e3),
+            "latency_ms": self.latency.summary(1e3),
+            "tick_cost_ms": self.cost.summary(1e3),
+            "published": pub.sent if pub else 0,
+            "publish_dropped": pub.dropped if pub else 0,
+            "control_requests": control.requests if control else 0,
+            "control_errors": control.errors if control else 0,
+            **self.counters,
+            "devices": devices,
+        }
+
+    def devices(self) -> list[dict[str, Any]]:
+        out = []
+        for slot in self.slots:
+            out.append(
+                {
+                    "name": slot.name,
+                    "spec": slot.config.spec,
+                    "kind": slot.kind,
+                    "state": slot.state,
+                    "surface_m": list(slot.surface_size) if slot.surface_size else None,
+                    "mapping": self._mapping_config(slot).mode,
+                }
+            )
+        return out
+
+    def params_reply(self) -> dict[str, Any]:
+        wire = self.pipeline.wire()
+        return {
+            "params": {k: v for k, v in self.defaults.items()},
+            "integrator": self.backend.integrator,
+            "materials": wire["materials"],
+        }
+
+    def ping(self) -> dict[str, Any]:
+        return {"tick": self.last_tick, "version": __version__, "rate": self.opts.rate}
+
+    def snapshot(self) -> dict[str, Any]:
+        return {
+            "tick": self.last_tick,
+            "scene": self.pipeline.wire(),
+            "frames": dict(self.last_frames),
+        }
+
+
+def _auto_devices() -> list[DeviceConfig]:
+    """No devices named: every usable tablet/touchpad found, else the synthetic pen."""
+    try:
+        from stiction.drivers.cli import discover_all
+
+        found = [i for i in discover_all() if i.problem is None and i.kind != "other"]
+    except Exception:  # discovery problems must not stop the no-argument start
+        log.exception("discovery_failed")
+        found = []
+    if not found:
+        log.info("no_devices_found using=synthetic:demo")
+        return [DeviceConfig("synthetic:demo")]
+    return [DeviceConfig(i.path) for i in found]
+
+
+def _ms(value: float | None) -> float | None:
+    return None if value is None else value / 1e3
