@@ -25,7 +25,6 @@ from collections import Counter
 from dataclasses import dataclass, field, replace
 
 from evdev import ecodes
-
 from stiction.drivers.evdev.description import (
     EV_ABS,
     EV_KEY,
@@ -162,14 +161,14 @@ class FrameAssembler:
     def feed(self, sec: int, usec: int, ev_type: int, code: int, value: int) -> Frame | None:
         """Consume one event; a SYN_REPORT that completes a good frame returns it."""
         if ev_type != EV_SYN:
-            if not self._dropping:
+            if self._dropping:
+                self.stats["events_discarded"] += 1
+            else:
                 self._pending.append((ev_type, code, value))
             return None
         if code == SYN_REPORT:
             if self._dropping:
                 self._dropping = False
-                self.stats["events_discarded"] += len(self._pending)
-                self._pending.clear()
                 return None
             events = self._pending
             self._pending = []

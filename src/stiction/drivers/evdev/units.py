@@ -14,7 +14,6 @@ import math
 from dataclasses import dataclass
 
 from evdev import ecodes
-
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import Contact
 from stiction.drivers.sample import PenSample
@@ -56,8 +55,10 @@ class SurfaceUnits:
         self.y_axis = ay or AbsAxis(0, 0, 0)
         rx, ry = self.x_axis.resolution, self.y_axis.resolution
         self.resolution_known = rx > 0 and ry > 0
-        self._sx = 1e-3 / rx if rx > 0 else 0.0
-        self._sy = 1e-3 / ry if ry > 0 else 0.0
+        # Divided, not multiplied by a reciprocal: x_m = (x - min) / res / 1000 exactly as
+        # architecture.md writes it, so every implementation agrees to the last bit.
+        self._rx = rx if rx > 0 else 1.0
+        self._ry = ry if ry > 0 else 1.0
         press = ecodes.ABS_MT_PRESSURE if desc.is_multitouch else ecodes.ABS_PRESSURE
         self._pressure = _pressure_scale(desc.axes.get(press))
         self._tilt_x = _tilt_scale(desc.axes.get(ecodes.ABS_TILT_X))
@@ -68,15 +69,15 @@ class SurfaceUnits:
         if not self.resolution_known:
             return None
         return (
-            (self.x_axis.maximum - self.x_axis.minimum) * self._sx,
-            (self.y_axis.maximum - self.y_axis.minimum) * self._sy,
+            (self.x_axis.maximum - self.x_axis.minimum) / self._rx / 1000,
+            (self.y_axis.maximum - self.y_axis.minimum) / self._ry / 1000,
         )
 
     def x_m(self, x: int) -> float | None:
-        return (x - self.x_axis.minimum) * self._sx if self.resolution_known else None
+        return (x - self.x_axis.minimum) / self._rx / 1000 if self.resolution_known else None
 
     def y_m(self, y: int) -> float | None:
-        return (y - self.y_axis.minimum) * self._sy if self.resolution_known else None
+        return (y - self.y_axis.minimum) / self._ry / 1000 if self.resolution_known else None
 
     def pressure(self, raw: int | None) -> float | None:
         if raw is None or self._pressure is None:
@@ -89,8 +90,8 @@ class SurfaceUnits:
         tx, ty = self._tilt_x, self._tilt_y
         return PenSample(
             t=t,
-            x=(c.x - self.x_axis.minimum) * self._sx,
-            y=(c.y - self.y_axis.minimum) * self._sy,
+            x=(c.x - self.x_axis.minimum) / self._rx / 1000,
+            y=(c.y - self.y_axis.minimum) / self._ry / 1000,
             tip=c.tip,
             in_range=c.in_range,
             contact=c.id,
