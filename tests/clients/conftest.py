@@ -23,17 +23,43 @@ from stiction.errors import ProtocolError
 
 SCENE: dict[str, Any] = {
     "name": "test scene",
-    "display": {"width": 400, "height": 300},
+    "source": "<test>",
+    "display": [400, 300],
+    "effects": ["stick_slip", "string"],
+    "outside": "pass-through",
     "materials": {
-        "sticky": {"mu_s": 1.0, "mu_k": 0.1},
-        "slippery": {"mu_s": 0.05, "mu_k": 0.02},
+        "sticky": {"mu_s": 1.0, "mu_k": 0.1, "k": 0.1, "m": 1e-4, "g": 9.8, "C_l": 2000.0},
+        "slippery": {
+            "mu_s": 0.05,
+            "mu_k": 0.02,
+            "k": 0.1,
+            "m": 1e-4,
+            "g": 9.8,
+            "C_l": 2000.0,
+            "color": "#a8e6ff",
+        },
     },
     "regions": [
-        {"shape": "rect", "x": 0, "y": 0, "w": 200, "h": 300, "material": "sticky"},
-        {"shape": "circle", "cx": 300, "cy": 150, "r": 60, "material": "slippery"},
+        {"name": "band", "material": "sticky", "shape": "rect", "rect": [0, 0, 200, 300]},
+        {
+            "name": "disc",
+            "material": "slippery",
+            "shape": "circle",
+            "center": [300, 150],
+            "radius": 60,
+        },
+        {
+            "name": "wedge",
+            "material": "slippery",
+            "shape": "polygon",
+            "points": [[220, 280], [380, 280], [300, 230]],
+        },
     ],
-    "effects": ["stick_slip", "string"],
 }
+
+
+def scene_message(tick: int = -1) -> dict[str, Any]:
+    return {"v": protocol.SCHEMA_VERSION, "kind": "scene", "tick": tick, "scene": SCENE}
 
 
 def make_contact(
@@ -101,7 +127,7 @@ class FakeDaemon:
         self.pub.setsockopt(zmq.LINGER, 0)
         self.pub.setsockopt(zmq.SNDHWM, 100_000)
         self.pub.bind(pub)
-        self.snapshot: dict[str, Any] = {"tick": -1, "scene": SCENE}
+        self.snapshot: dict[str, Any] = {"tick": -1, "scene": SCENE, "frames": {}}
         self.params: dict[str, Any] = {"k": 0.1, "m": 1e-4, "mu_k": 0.1, "C_l": 2000.0}
         self.requests: list[str] = []
         self._stop = threading.Event()
@@ -131,7 +157,7 @@ class FakeDaemon:
                 if op == "snapshot":
                     rep.send(protocol.ok_reply(**self.snapshot))
                 elif op == "get_scene":
-                    rep.send(protocol.ok_reply(scene=SCENE))
+                    rep.send(protocol.ok_reply(scene=SCENE, toml=""))
                 elif op == "get_params":
                     rep.send(protocol.ok_reply(params=self.params))
                 else:

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 import zmq
 
-from conftest import SCENE, FakeDaemon, make_contact, make_frame, stroke
+from conftest import SCENE, FakeDaemon, make_contact, make_frame, scene_message, stroke
 from stiction import protocol
 from stiction.clients import (
     AsyncSubscriber,
@@ -64,10 +64,10 @@ def test_kind_filter_scene_and_frames(daemon: FakeDaemon) -> None:
     with Subscriber(daemon.pub_endpoint, kinds=["scene"]) as only_scene:
         daemon.wait_subscribers()
         daemon.send(make_frame(1))
-        daemon.send({"v": 1, "kind": "scene", "scene": SCENE})
+        daemon.send(scene_message(3))
         msg = only_scene.recv(timeout=10)
-        assert isinstance(msg, SceneMessage)
-        assert msg.scene["display"] == {"width": 400, "height": 300}
+        assert isinstance(msg, SceneMessage) and msg.tick == 3
+        assert msg.scene["display"] == [400, 300]
         assert only_scene.stats.frames == 0
 
 
@@ -183,7 +183,7 @@ def test_daemon_restart_is_only_a_gap(transport: str, endpoints: tuple[str, str]
 
 def test_snapshot_then_stream_without_duplicates(daemon: FakeDaemon) -> None:
     snap_frame = make_frame(5, contacts=[make_contact((50, 60), (55, 60))])
-    daemon.snapshot = {"tick": 5, "scene": SCENE, "frames": [snap_frame]}
+    daemon.snapshot = {"tick": 5, "scene": SCENE, "frames": {"pen": snap_frame}}
     with Subscriber(
         daemon.pub_endpoint, kinds=["frame", "scene"], control=daemon.control_endpoint
     ) as sub:
@@ -193,10 +193,14 @@ def test_snapshot_then_stream_without_duplicates(daemon: FakeDaemon) -> None:
         assert isinstance(first, Frame) and first.tick == 5
         assert first.contacts[0].pointer_px == (50.0, 60.0)
         daemon.wait_subscribers(2)
+        daemon.send(scene_message(4))  # in force before the snapshot: stale
         for tick in range(3, 9):
             daemon.send(make_frame(tick))
+        daemon.send(scene_message(8))
         assert [f.tick for f in sub.frames(count=3, seconds=30)] == [6, 7, 8]
-        assert sub.stats.stale == 3
+        newer = sub.recv(timeout=10)
+        assert isinstance(newer, SceneMessage) and newer.tick == 8
+        assert sub.stats.stale == 4
     assert daemon.requests == ["snapshot"]
 
 

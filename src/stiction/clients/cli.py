@@ -1,10 +1,182 @@
-"""Command-line sub-commands of this package (see stiction.cli)."""
+"""`stiction listen | record | replay | web`: the client tools on the command line.
+
+Handlers import their modules when they run, so `stiction --help` does not
+load numpy or aiohttp.
+"""
 
 from __future__ import annotations
 
 import argparse
 from typing import Any
 
+from stiction import protocol
+
+
+def _positive_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must not be negative, got {value}")
+    return value
+
+
+def _positive_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not value > 0 or value == float("inf"):
+        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
+    return value
+
+
+def _port(text: str) -> int:
+    value = _positive_int(text)
+    if value > 65535:
+        raise argparse.ArgumentTypeError(f"not a TCP port: {value}")
+    return value
+
+
+def default_control(pub: str) -> str | None:
+    """The control endpoint that goes with a publisher endpoint, when it is the default."""
+    return protocol.DEFAULT_CONTROL if pub == protocol.DEFAULT_PUB else None
+
+
+def _listen(args: argparse.Namespace) -> int:
+    from stiction.clients.listen import listen
+
+    return listen(
+        args.endpoint,
+        as_json=args.json,
+        count=args.count,
+        seconds=args.seconds,
+        devices=args.device or None,
+        scenes=args.scenes,
+    )
+
+
+def _record(args: argparse.Namespace) -> int:
+    from stiction.clients.record import record, report, stop_on_sigterm
+
+    ctl = None if args.no_control else (args.control or default_control(args.endpoint))
+    result = record(
+        args.endpoint,
+        args.out,
+        control_endpoint=ctl,
+        count=args.count,
+        seconds=args.seconds,
+        idle=args.idle,
+        devices=args.device or None,
+        stop=stop_on_sigterm(),
+    )
+    report(result)
+    return 0
+
+
+def _replay(args: argparse.Namespace) -> int:
+    from stiction.clients.replay import replay
+
+    return replay(
+        args.file,
+        pub=args.pub,
+        control=args.control,
+        speed=args.speed,
+        fast=args.fast,
+        loops=args.loop,
+        wait=args.wait,
+        no_wait=args.no_wait,
+        hold=args.hold,
+    )
+
+
+def _web(args: argparse.Namespace) -> int:
+    from stiction.clients.web.server import serve
+
+    ctl = None if args.no_control else (args.control or default_control(args.pub))
+    return serve(pub=args.pub, control=ctl, host=args.host, port=args.port, seconds=args.seconds)
+
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
-    """Add this package's sub-commands (none yet)."""
+    """Add listen, record, replay and web."""
+    p = sub.add_parser(
+        "listen",
+        help="print the frames a subscriber receives",
+        description="Subscribe to a daemon and print its frames, one line each.",
+    )
+    p.add_argument("endpoint", nargs="?", default=protocol.DEFAULT_PUB, help="publisher endpoint")
+    p.add_argument("--json", action="store_true", help="one JSON object per frame: the wire frame")
+    p.add_argument("--count", type=_positive_int, help="stop after N frames")
+    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
+    p.add_argument("--device", action="append", help="only this device (repeatable)")
+    p.add_argument("--scenes", action="store_true", help="also print scene messages")
+    p.set_defaults(func=_listen)
+
+    p = sub.add_parser(
+        "record",
+        help="record the frame stream to a .npz file",
+        description="Record frames (and scene changes) to a numpy .npz file with the scene "
+        "and parameters in its metadata. Stops at --count, --seconds, --idle, Ctrl-C or SIGTERM; "
+        "the file is written in every case.",
+    )
+    p.add_argument("endpoint", nargs="?", default=protocol.DEFAULT_PUB, help="publisher endpoint")
+    p.add_argument("--out", required=True, help="output file, *.npz")
+    p.add_argument(
+        "--control",
+        help="control endpoint for scene and parameters "
+        f"(default: {protocol.DEFAULT_CONTROL} when ENDPOINT is the default)",
+    )
+    p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
+    p.add_argument("--count", type=_positive_int, help="stop after N frames")
+    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
+    p.add_argument(
+        "--idle", type=_positive_float, help="stop after S seconds without frames (once started)"
+    )
+    p.add_argument("--device", action="append", help="only this device (repeatable)")
+    p.set_defaults(func=_record)
+
+    p = sub.add_parser(
+        "replay",
+        help="publish a recording again",
+        description="Publish a recording made by `stiction record` as a daemon would, at the "
+        "recorded pace (scaled by --speed) or as fast as possible (--fast).",
+    )
+    p.add_argument("file", help="a .npz recording")
+    p.add_argument("--pub", default=protocol.DEFAULT_PUB, help="endpoint to publish on")
+    p.add_argument(
+        "--control", help="also answer read-only control requests (snapshot, get_scene) here"
+    )
+    p.add_argument("--speed", type=_positive_float, default=1.0, help="pace factor (default 1)")
+    p.add_argument("--fast", action="store_true", help="as fast as possible")
+    p.add_argument("--loop", type=_positive_int, default=1, help="passes to play (0: forever)")
+    p.add_argument(
+        "--wait", type=_positive_float, help="give up if no subscriber comes within S seconds"
+    )
+    p.add_argument("--no-wait", action="store_true", help="start without waiting for a subscriber")
+    p.add_argument(
+        "--hold",
+        nargs="?",
+        type=_positive_float,
+        const=float("inf"),
+        help="after the end, keep answering control requests (for S seconds, or until Ctrl-C)",
+    )
+    p.set_defaults(func=_replay)
+
+    p = sub.add_parser(
+        "web",
+        help="watch the frames in a browser",
+        description="Serve a page that draws the scene, the pointer and the virtual string "
+        "from the daemon's frames, forwarded over a WebSocket.",
+    )
+    p.add_argument("--pub", default=protocol.DEFAULT_PUB, help="daemon publisher endpoint")
+    p.add_argument(
+        "--control",
+        help="daemon control endpoint, for the scene "
+        f"(default: {protocol.DEFAULT_CONTROL} when --pub is the default)",
+    )
+    p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
+    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default loopback)")
+    p.add_argument("--port", type=_port, default=8765, help="HTTP port (0: any free port)")
+    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds (for scripts)")
+    p.set_defaults(func=_web)

@@ -114,22 +114,23 @@ class Frame:
 
 @dataclass(frozen=True, slots=True)
 class SceneMessage:
-    """The active scene, published on topic ``scene`` when it changes and on start.
-
-    Its content is the daemon's scene description (docs/protocol.md); clients
-    draw from it and pass unknown keys through untouched.
-    """
+    """The active scene (docs/protocol.md "Scene"), published on topic ``scene``
+    at start and whenever it changes; ``tick`` is the last tick sent before it
+    took effect. Renderers draw ``scene``; unknown keys pass through untouched."""
 
     v: int
-    wire: dict[str, Any]
+    tick: int
+    wire: protocol.SceneMessageWire
 
     kind = "scene"
 
     @property
-    def scene(self) -> dict[str, Any]:
-        """The scene map itself, whether sent bare or wrapped under ``"scene"``."""
-        inner = self.wire.get("scene")
-        return inner if isinstance(inner, dict) else self.wire
+    def scene(self) -> protocol.SceneWire:
+        return self.wire["scene"]
+
+    @classmethod
+    def from_wire(cls, wire: protocol.SceneMessageWire) -> SceneMessage:
+        return cls(v=int(wire["v"]), tick=int(wire["tick"]), wire=wire)
 
     def to_json(self) -> str:
         return wire_to_json(self.wire)
@@ -174,5 +175,5 @@ def parse_message(topic: bytes, payload: bytes) -> Message:
             raise ProtocolError(f"frame for device {frame.device!r} arrived on topic {shown!r}")
         return frame
     if topic == protocol.TOPIC_SCENE:
-        return SceneMessage(v=int(message["v"]), wire=message)
+        return SceneMessage.from_wire(protocol.validate_scene_message(message))
     raise ProtocolError(f"unknown topic {topic[:64]!r}")

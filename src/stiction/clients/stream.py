@@ -83,6 +83,7 @@ class StreamState:
         self._snapshot_tick: dict[str, int] = {}
         self._snapshot_default: int | None = None
         self._synced: set[str] = set()
+        self._scene_after: int | None = None
         self._pending: dict[tuple[str, str], Message] = {}
         self._bad_logged = 0
 
@@ -112,6 +113,13 @@ class StreamState:
         if isinstance(msg, SceneMessage):
             if "scene" not in self.kinds:
                 return None
+            if self._scene_after is not None:
+                # The snapshot carried the scene in force at its tick; older
+                # scene messages still in flight would step back in time.
+                if msg.tick < self._scene_after:
+                    self.stats.stale += 1
+                    return None
+                self._scene_after = None
             self.stats.scenes += 1
             return msg
         if "frame" not in self.kinds or (
@@ -165,11 +173,18 @@ class StreamState:
         device) and ``scene``. Keys it does not find are simply not used.
         """
         out: list[Message] = []
+        tick = reply.get("tick")
         scene = reply.get("scene")
         if "scene" in self.kinds and isinstance(scene, dict):
-            wire = {"v": reply.get("v", protocol.SCHEMA_VERSION), "scene": scene}
-            out.append(SceneMessage(v=int(wire["v"]), wire=wire))
-            self.stats.scenes += 1
+            snap_tick = tick if isinstance(tick, int) and not isinstance(tick, bool) else -1
+            try:
+                wire = protocol.validate_scene_message(protocol.scene_message(scene, snap_tick))  # type: ignore[arg-type]
+            except ProtocolError as exc:
+                self._bad(f"snapshot scene: {exc}")
+            else:
+                out.append(SceneMessage.from_wire(wire))
+                self.stats.scenes += 1
+                self._scene_after = snap_tick
         frames = reply.get("frames")
         if isinstance(frames, dict):
             frames = list(frames.values())
@@ -186,7 +201,6 @@ class StreamState:
                     out.append(frame)
                     self.stats.frames += 1
                     self._last_tick[frame.device] = frame.tick
-        tick = reply.get("tick")
         if isinstance(tick, int) and not isinstance(tick, bool):
             self._snapshot_default = tick
         elif isinstance(tick, dict):

@@ -1,0 +1,157 @@
+"""`stiction record`: subscribe, keep everything, write one .npz at the end.
+
+The metadata that makes a recording interpretable later (the scene, the
+material parameters, the devices) is asked of the control endpoint once at
+start; a daemon without one still gets recorded, and the file says so.
+"""
+
+from __future__ import annotations
+
+import logging
+import signal
+import sys
+import threading
+import time
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from datetime import UTC, datetime
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from stiction import __version__, protocol
+from stiction.clients import control, recording
+from stiction.clients.messages import Frame, SceneMessage
+from stiction.clients.subscriber import Subscriber
+from stiction.errors import ProtocolError, RecordingError
+
+log = logging.getLogger("stiction.clients.record")
+
+
+@dataclass(frozen=True)
+class RecordResult:
+    path: Path
+    frames: int
+    contacts: int
+    scenes: int
+    bad: int
+
+
+def fetch_metadata(control_endpoint: str | None, timeout: float = 1.0) -> dict[str, Any]:
+    """Scene, parameters and devices from the daemon, or why they are missing."""
+    if control_endpoint is None:
+        return {"control": None, "control_error": "no control endpoint given"}
+    meta: dict[str, Any] = {"control": control_endpoint}
+    try:
+        meta["daemon"] = control.request(control_endpoint, "ping", timeout=timeout)
+        scene = control.request(control_endpoint, "get_scene", timeout=timeout)
+        meta["scene"] = scene.get("scene")
+        meta["scene_toml"] = scene.get("toml")
+        meta["params"] = control.request(control_endpoint, "get_params", timeout=timeout)
+        meta["devices"] = control.request(control_endpoint, "devices", timeout=timeout).get(
+            "devices"
+        )
+    except (control.ControlUnavailable, ProtocolError) as exc:
+        meta["control_error"] = str(exc)
+        log.warning("recording without daemon metadata: %s", exc)
+    for reply_key in ("daemon", "params"):
+        if isinstance(meta.get(reply_key), dict):
+            meta[reply_key] = {k: v for k, v in meta[reply_key].items() if k not in ("v", "ok")}
+    return meta
+
+
+def record(
+    endpoint: str,
+    out: str | Path,
+    *,
+    control_endpoint: str | None = None,
+    count: int | None = None,
+    seconds: float | None = None,
+    idle: float | None = None,
+    devices: Sequence[str] | None = None,
+    stop: threading.Event | None = None,
+) -> RecordResult:
+    """Record until ``count`` frames, ``seconds``, ``idle`` seconds of silence
+    after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``."""
+    out = Path(out)
+    if out.suffix != ".npz":
+        raise RecordingError(f"{out}: recordings are numpy .npz files; name it *.npz")
+    meta = fetch_metadata(control_endpoint)
+    reachable = "control_error" not in meta
+    meta.update(
+        endpoint=endpoint,
+        devices_filter=list(devices) if devices else None,
+        started_utc=datetime.now(UTC).isoformat(),
+        stiction_version=__version__,
+    )
+    messages: list[tuple[bytes, bytes, float]] = []
+    frames: list[Frame] = []
+    scenes: list[dict[str, Any]] = []
+    t0 = last_t = time.monotonic()
+    end = None if seconds is None else t0 + seconds
+    sub = Subscriber(
+        endpoint,
+        devices=devices,
+        kinds=("frame", "scene"),
+        control=control_endpoint if reachable else None,
+    )
+    try:
+        while count is None or len(frames) < count:
+            if stop is not None and stop.is_set():
+                break
+            now = time.monotonic()
+            if end is not None and now >= end:
+                break
+            wait = 0.2 if end is None else min(0.2, end - now)
+            msg = sub.recv(wait)
+            if msg is None:
+                if idle is not None and frames and time.monotonic() - last_t >= idle:
+                    break
+                continue
+            last_t = time.monotonic()
+            if isinstance(msg, SceneMessage):
+                topic = protocol.TOPIC_SCENE
+                scenes.append({"tick": msg.tick, "scene": msg.scene})
+            else:
+                topic = protocol.frame_topic(msg.device)
+                frames.append(msg)
+            messages.append((topic, protocol.encode(msg.wire), last_t - t0))
+    except KeyboardInterrupt:
+        pass
+    finally:
+        stats = sub.stats
+        sub.close()
+    if meta.get("scene") is None and scenes:
+        meta["scene"] = scenes[0]["scene"]
+    meta["scene_changes"] = scenes
+    meta["subscriber_stats"] = asdict(stats)
+    meta["duration_s"] = time.monotonic() - t0
+    path = recording.write(out, messages, frames, meta)
+    return RecordResult(
+        path=path,
+        frames=len(frames),
+        contacts=sum(len(f.contacts) for f in frames),
+        scenes=len(scenes),
+        bad=stats.bad,
+    )
+
+
+def stop_on_sigterm() -> threading.Event:
+    """SIGTERM ends a recording the way Ctrl-C does: the file is still written."""
+    stop = threading.Event()
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    if threading.current_thread() is threading.main_thread():
+        signal.signal(signal.SIGTERM, handler)
+    return stop
+
+
+def report(result: RecordResult) -> None:
+    print(
+        f"stiction record: wrote {result.frames} frames ({result.contacts} contacts, "
+        f"{result.scenes} scene messages) to {result.path}"
+        + (f"; skipped {result.bad} malformed" if result.bad else ""),
+        file=sys.stderr,
+    )

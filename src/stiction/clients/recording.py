@@ -1,0 +1,165 @@
+"""The recording file: a numpy ``.npz`` that analysis reads directly and replay
+publishes again.
+
+Why .npz rather than Parquet: the experiment analysis this serves is numpy
+code (release times, string lengths, trajectories per trial), numpy is already
+a dependency while pyarrow would add ~100 MB, and ``np.load`` needs nothing
+else. Every array is numeric or fixed-width unicode, so loading never needs
+``allow_pickle`` (a recording from someone else cannot run code).
+
+Contents (all arrays; see docs/clients.md for the table):
+
+- the ContactTable columns (``frame_*``: one row per frame; the rest: one row
+  per contact, ``contact_frame`` linking a contact to its frame);
+- ``messages`` (uint8), ``message_offsets`` (int64, n+1), ``message_topics``,
+  ``message_recv_t``: every received message (frames and scene changes) as its
+  msgpack payload, in order, so replay reproduces the stream with every key,
+  including keys this version of stiction does not know;
+- ``meta``: one JSON string: format and schema versions, endpoints, start
+  time, and the scene and parameters fetched from the control endpoint.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tempfile
+import zipfile
+import zlib
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from stiction import protocol
+from stiction.clients.columns import ContactTable
+from stiction.clients.messages import Frame, parse_message
+from stiction.errors import ProtocolError, RecordingError
+
+FORMAT = "stiction-recording"
+FORMAT_VERSION = 1
+
+
+@dataclass(frozen=True)
+class Recording:
+    """A loaded recording: the columns, the raw message stream and the metadata."""
+
+    table: ContactTable
+    meta: dict[str, Any]
+    payloads: npt.NDArray[np.uint8]
+    offsets: npt.NDArray[np.int64]
+    topics: npt.NDArray[np.str_]
+    recv_t: npt.NDArray[np.float64]
+
+    def __len__(self) -> int:
+        return int(self.topics.shape[0])
+
+    def messages(self) -> Iterator[tuple[bytes, bytes]]:
+        """(topic, payload) of every recorded message, in the order received."""
+        buf = self.payloads.tobytes()
+        for i, topic in enumerate(self.topics.tolist()):
+            yield topic.encode("utf-8"), buf[int(self.offsets[i]) : int(self.offsets[i + 1])]
+
+    def frames(self) -> Iterator[Frame]:
+        for topic, payload in self.messages():
+            msg = parse_message(topic, payload)
+            if isinstance(msg, Frame):
+                yield msg
+
+
+def write(
+    path: str | Path,
+    messages: list[tuple[bytes, bytes, float]],
+    frames: list[Frame],
+    meta: dict[str, Any],
+) -> Path:
+    """Write atomically (temp file, then rename): an interrupted write never
+    leaves a truncated recording under the requested name."""
+    path = Path(path)
+    if path.suffix != ".npz":
+        raise RecordingError(f"{path}: recordings are numpy .npz files; name it *.npz")
+    table = ContactTable.from_frames(frames)
+    sizes = np.fromiter((len(p) for _, p, _ in messages), dtype=np.int64, count=len(messages))
+    offsets = np.zeros(len(messages) + 1, dtype=np.int64)
+    np.cumsum(sizes, out=offsets[1:])
+    payloads = np.frombuffer(b"".join(p for _, p, _ in messages), dtype=np.uint8)
+    full_meta = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "schema_version": protocol.SCHEMA_VERSION,
+        **meta,
+        "frames": len(frames),
+        "messages": len(messages),
+    }
+    arrays: dict[str, Any] = {
+        **table.as_dict(),
+        "messages": payloads,
+        "message_offsets": offsets,
+        "message_topics": np.asarray(
+            [t.decode("utf-8", "replace") for t, _, _ in messages], dtype=np.str_
+        ),
+        "message_recv_t": np.asarray([r for _, _, r in messages], dtype=np.float64),
+        "meta": np.asarray(json.dumps(full_meta, allow_nan=False, default=str)),
+    }
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read(path: str | Path) -> Recording:
+    """Load a recording; a file that is not one raises RecordingError naming it."""
+    path = Path(path)
+    try:
+        data = np.load(path, allow_pickle=False)
+    except FileNotFoundError:
+        raise RecordingError(f"{path}: no such file") from None
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise RecordingError(f"{path}: not a numpy .npz recording ({exc})") from exc
+    with data:
+        try:
+            meta = json.loads(str(data["meta"]))
+            if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+                raise RecordingError(f"{path}: not a stiction recording (no format marker)")
+            if int(meta.get("format_version", 0)) > FORMAT_VERSION:
+                raise RecordingError(
+                    f"{path}: recording format {meta['format_version']} is newer than this "
+                    f"stiction's {FORMAT_VERSION}; upgrade stiction to read it"
+                )
+            columns = {name: data[name] for name in ContactTable.__dataclass_fields__}
+            rec = Recording(
+                table=ContactTable(**columns),
+                meta=meta,
+                payloads=data["messages"].astype(np.uint8, copy=False),
+                offsets=data["message_offsets"].astype(np.int64, copy=False),
+                topics=data["message_topics"],
+                recv_t=data["message_recv_t"].astype(np.float64, copy=False),
+            )
+        except KeyError as exc:
+            raise RecordingError(f"{path}: recording lacks the array {exc}") from None
+        except (ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
+            raise RecordingError(f"{path}: damaged recording ({exc})") from exc
+    n = len(rec.topics)
+    if rec.offsets.shape != (n + 1,) or (n and int(rec.offsets[-1]) != rec.payloads.shape[0]):
+        raise RecordingError(f"{path}: message index does not match the message buffer")
+    if n and (np.any(np.diff(rec.offsets) < 0) or int(rec.offsets[0]) != 0):
+        raise RecordingError(f"{path}: message offsets are not increasing")
+    return rec
+
+
+def check_messages(rec: Recording, where: str) -> None:
+    """Decode every message once, so replay never publishes something broken."""
+    for i, (topic, payload) in enumerate(rec.messages()):
+        try:
+            parse_message(topic, payload)
+        except ProtocolError as exc:
+            raise RecordingError(f"{where}: message {i}: {exc}") from exc

@@ -1,0 +1,1 @@
+"""The browser renderer: an aiohttp bridge (server.py) and the page it serves (static/)."""

@@ -1,0 +1,219 @@
+"""ZeroMQ -> WebSocket: the one place where msgpack frames become JSON.
+
+Every frame is transcoded once, however many pages watch. Each page gets the
+*latest* state of each stream (one per device, the scene, the status), never
+a queue: a page that draws slower than the daemon publishes skips frames
+instead of falling behind. The bridge survives anything the daemon sends: a
+malformed frame is counted and skipped, a newer schema is reported to the
+pages, a daemon that goes silent is reported as gone and picked up again
+when it returns.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import logging
+import time
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from stiction import protocol
+from stiction.clients import control as control_mod
+from stiction.clients.aio import AsyncSubscriber
+from stiction.clients.messages import Frame, SceneMessage, wire_to_json
+from stiction.errors import ProtocolError
+
+log = logging.getLogger("stiction.clients.web")
+
+SILENT_AFTER = 1.0
+"""Seconds without a frame before pages are told the daemon is gone: at
+100 Hz a live daemon sends a frame per device every 10 ms, even without contact."""
+
+SAME_CLOCK_WITHIN = 10.0
+"""A frame time within this many seconds of the bridge's monotonic clock is
+taken to come from a daemon on this machine running in real time, so its age
+is a latency. Otherwise (virtual clock, another machine) no latency is shown."""
+
+
+@dataclass
+class BridgeStats:
+    frames: int = 0
+    scenes: int = 0
+    sent: int = 0
+    skipped_for_slow_pages: int = 0
+    pages: int = 0
+    errors: int = 0
+    last_error: str | None = None
+    state: str = "waiting"
+
+
+@dataclass
+class Page:
+    """One connected page: which streams changed since its last send."""
+
+    dirty: set[str] = field(default_factory=set)
+    wake: asyncio.Event = field(default_factory=asyncio.Event)
+
+    def mark(self, key: str) -> bool:
+        """Mark a stream changed; False when an unsent value was overwritten."""
+        fresh = key not in self.dirty
+        self.dirty.add(key)
+        self.wake.set()
+        return fresh
+
+
+class Bridge:
+    def __init__(self, pub: str, control: str | None) -> None:
+        self.pub = pub
+        self.control = control
+        self.stats = BridgeStats()
+        self.latest: dict[str, str] = {}
+        """Stream key ("frame:<device>", "scene", "status") -> JSON text to send."""
+        self.pages: set[Page] = set()
+        self._last_frame_at: float | None = None
+        self._started_at: float | None = None
+        self._tasks: set[asyncio.Future[None]] = set()
+        self._status_message = f"waiting for frames from {pub}"
+        self._set_status("waiting", self._status_message)
+
+    # -- state shared with the pages --------------------------------------------
+
+    def _publish(self, key: str, text: str) -> None:
+        self.latest[key] = text
+        for page in self.pages:
+            if not page.mark(key):
+                self.stats.skipped_for_slow_pages += 1
+
+    def _set_status(self, state: str, message: str) -> None:
+        self.stats.state = state
+        self._status_message = message
+        self._publish(
+            "status",
+            json.dumps(
+                {
+                    "type": "status",
+                    "state": state,
+                    "message": message,
+                    "pub": self.pub,
+                    "control": self.control,
+                }
+            ),
+        )
+
+    def frame_json(self, frame: Frame, received: float) -> str:
+        """The page's frame message: the wire frame untouched, plus the bridge's
+        measurement of its age when that is meaningful."""
+        age = received - frame.t
+        latency_ms = age * 1000 if 0 <= age < SAME_CLOCK_WITHIN else None
+        wire = wire_to_json(frame.wire)
+        lat = "null" if latency_ms is None else f"{latency_ms:.3f}"
+        return f'{{"type":"frame","latency_ms":{lat},"frame":{wire}}}'
+
+    def scene_json(self, scene: SceneMessage) -> str:
+        return f'{{"type":"scene","tick":{scene.tick},"scene":{wire_to_json(scene.scene)}}}'
+
+    # -- the ZeroMQ side ----------------------------------------------------------
+
+    async def _fetch_snapshot(self) -> None:
+        """Scene and last frames at once, so a page shows something before the next tick."""
+        if self.control is None:
+            return
+        try:
+            reply = await control_mod.request_async(self.control, "snapshot", timeout=1.0)
+        except (control_mod.ControlUnavailable, ProtocolError) as exc:
+            log.info("no snapshot from %s: %s", self.control, exc)
+            return
+        scene = reply.get("scene")
+        tick = reply.get("tick", -1)
+        if isinstance(scene, dict) and isinstance(tick, int):
+            try:
+                msg = protocol.validate_scene_message(protocol.scene_message(scene, tick))  # type: ignore[arg-type]
+            except ProtocolError as exc:
+                self._error(f"snapshot scene: {exc}")
+            else:
+                self._publish("scene", self.scene_json(SceneMessage.from_wire(msg)))
+                self.stats.scenes += 1
+
+    def _error(self, why: str) -> None:
+        self.stats.errors += 1
+        self.stats.last_error = why
+        log.warning("%s", why)
+
+    async def run(self) -> None:
+        """Read the daemon until cancelled; never raises for anything it receives."""
+        sub = AsyncSubscriber(self.pub, kinds=("frame", "scene"))
+        await self._fetch_snapshot()
+        try:
+            while True:
+                try:
+                    msg = await sub.recv(timeout=0.25)
+                except ProtocolError as exc:  # a newer schema: tell the pages, keep going
+                    self._error(str(exc))
+                    self._set_status("error", str(exc))
+                    continue
+                now = time.monotonic()
+                if msg is None:
+                    self._check_silence(now)
+                    continue
+                if isinstance(msg, SceneMessage):
+                    self.stats.scenes += 1
+                    self._publish("scene", self.scene_json(msg))
+                    continue
+                self.stats.frames += 1
+                if self.stats.state != "live":
+                    was_gone = self.stats.state == "gone"
+                    self._set_status("live", f"receiving frames from {self.pub}")
+                    if was_gone:  # a restarted daemon may run another scene
+                        task = asyncio.ensure_future(self._fetch_snapshot())
+                        self._tasks.add(task)
+                        task.add_done_callback(self._tasks.discard)
+                self._last_frame_at = now
+                self._publish(f"frame:{msg.device}", self.frame_json(msg, now))
+                # Other malformed input was counted by the subscriber.
+                self.stats.errors = sub.stats.bad
+                self.stats.last_error = sub.stats.last_error or self.stats.last_error
+        finally:
+            sub.close()
+
+    def _check_silence(self, now: float) -> None:
+        if self.stats.state == "gone":
+            return
+        since = self._last_frame_at
+        if since is None:
+            since = self._started_at
+            if since is None:
+                self._started_at = since = now
+        if now - since >= SILENT_AFTER:
+            self._set_status(
+                "gone",
+                f"no frames from the daemon at {self.pub} for {now - since:.0f} s: "
+                "is stictiond running?",
+            )
+
+    # -- the WebSocket side -----------------------------------------------------
+
+    def attach(self) -> Page:
+        """A new page gets everything current at once, then updates."""
+        page = Page()
+        self.pages.add(page)
+        self.stats.pages = len(self.pages)
+        for key in self.latest:
+            page.mark(key)
+        return page
+
+    def detach(self, page: Page) -> None:
+        self.pages.discard(page)
+        self.stats.pages = len(self.pages)
+
+    def take(self, page: Page) -> list[str]:
+        """The messages a page should get now, status first and scene before frames."""
+        order = sorted(page.dirty, key=lambda k: (k != "status", k != "scene", k))
+        page.dirty.clear()
+        page.wake.clear()
+        out = [self.latest[k] for k in order if k in self.latest]
+        self.stats.sent += len(out)
+        return out
+
+    def summary(self) -> dict[str, Any]:
+        return {**asdict(self.stats), "pub": self.pub, "control": self.control}
