@@ -187,7 +187,7 @@ def open_hidraw(path_or_vidpid: str, size_m: tuple[float, float] | None = None) 
         learned = _vendor_init(dev, entry)
         stream = ReportStream(desc, label, size_m or learned, entry)
         max_len = max((r.byte_size for r in desc.input_reports.values()), default=64)
-        reader = HidrawReader(dev, label, min(max(max_len, 64), MAX_REPORT))
+        reader = HidrawReader(dev, label, min(max_len, MAX_REPORT))
     except BaseException:
         dev.close()
         raise

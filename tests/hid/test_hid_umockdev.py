@@ -1,0 +1,108 @@
+"""The production hidraw backend (hidapi's `hidraw` module) against umockdev-mocked devices.
+
+Each test generates the .umockdev/.ioctl/.script files from a real tablet's
+descriptor and recorded reports, runs the backend in a subprocess under
+umockdev-run and compares what it produced with the same reports decoded
+directly. Sample times are not compared: hidraw has no timestamps and
+umockdev replays only roughly in real time.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from dataclasses import asdict
+from pathlib import Path
+
+import pytest
+from umockdev_hidraw import write_mock
+
+from stiction.drivers.hid.descriptor import parse_descriptor
+from stiction.drivers.hid.devices import lookup
+from stiction.drivers.hid.recording import load_recording
+from stiction.drivers.hid.stream import ReportStream
+
+HERE = Path(__file__).resolve().parent
+HELPER = HERE / "hidraw_reader_helper.py"
+N_REPORTS = 300
+
+pytestmark = pytest.mark.umockdev
+
+
+def _umockdev_run() -> str:
+    exe = shutil.which("umockdev-run")
+    if exe is None:
+        pytest.fail(
+            "umockdev-run is not installed (Debian package umockdev; `make test` installs it)"
+        )
+    return exe
+
+
+def _run(tmp: Path, files, wanted: int, *extra: str) -> list[dict]:  # type: ignore[no-untyped-def]
+    cmd = [
+        _umockdev_run(),
+        "--device",
+        str(files.device),
+        "--ioctl",
+        f"{files.dev_node}={files.ioctl}",
+        "--script",
+        f"{files.dev_node}={files.script}",
+        "--",
+        sys.executable,
+        str(HELPER),
+        files.dev_node,
+        str(wanted),
+        *extra,
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=tmp)
+    assert proc.returncode == 0, proc.stderr
+    return [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
+
+
+def _direct(name: str, descriptor: bytes, vid: int, pid: int, reports: list[bytes]) -> list[dict]:
+    stream = ReportStream(parse_descriptor(descriptor), name, None, lookup(vid, pid))
+    out = []
+    for i, data in enumerate(reports):
+        for s in stream.feed(float(i), data):
+            d = asdict(s)
+            d["tool"] = s.tool.value
+            out.append(d)
+    return out
+
+
+@pytest.mark.parametrize("recording", ["xp-pen-artist-10s", "yiynova-mvp20u-rh"])
+def test_hidraw_backend_reads_recorded_reports(
+    tmp_path: Path, hid_data: Path, recording: str
+) -> None:
+    rec = load_recording(hid_data / f"{recording}.hid")
+    reports = [ev.data for ev in rec.events[:N_REPORTS]]
+    files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports)
+    lines = _run(tmp_path, files, len(reports), "--discover")
+
+    found = [x["discover"] for x in lines if "discover" in x]
+    assert found == [
+        {
+            "path": files.dev_node,
+            "backend": "hidraw",
+            "vid": rec.vid,
+            "pid": rec.pid,
+            "name": rec.name,
+            "kind": "pen",
+            "problem": None,
+        }
+    ]
+    head = next(x for x in lines if "kind" in x)
+    assert head["kind"] == "pen"
+    tail = lines[-1]
+    assert tail["error"] is None
+    assert tail["stats"]["reports"] == len(reports)
+
+    got = [x for x in lines if "x" in x]
+    expected = _direct(rec.name, rec.descriptor, rec.vid, rec.pid, reports)
+    assert len(got) == len(expected) > 100
+    for g, e in zip(got, expected, strict=True):
+        g.pop("t")
+        e.pop("t")
+        assert g == e
