@@ -1,10 +1,11 @@
 """Runs inside umockdev-run: the production hidraw backend reads a mocked node.
 
-Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover]
+Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error]
 Prints one JSON line per PenSample, then a final {"stats": ...} line.
 Stops once the backend has fed N_REPORTS reports (waiting on the source's
-counters with a short timeout per check, never a fixed sleep), or raises
-when the device errors.
+counters with a short timeout per check, never a fixed sleep), or when the
+device errors. With --until-error it prints {"reached": N} at that point and
+keeps reading until the device fails (the unplug test).
 """
 
 from __future__ import annotations
@@ -42,10 +43,16 @@ def main() -> int:
 
     t = threading.Thread(target=pump, daemon=True)
     t.start()
+    until_error = "--until-error" in sys.argv
+    reached = False
     while not done.wait(0.01):
-        if src.stats().get("reports", 0) >= wanted:
-            break
+        if not reached and src.stats().get("reports", 0) >= wanted:
+            reached = True
+            if not until_error:
+                break
+            print(json.dumps({"reached": wanted}), flush=True)
     src.close()
+    src.close()  # idempotent
     done.wait(5.0)
     for line in out:
         print(line)

@@ -106,3 +106,44 @@ def test_hidraw_backend_reads_recorded_reports(
         g.pop("t")
         e.pop("t")
         assert g == e
+
+
+def test_unplug_reports_closes_and_raises(tmp_path: Path, hid_data: Path) -> None:
+    """A device that vanishes mid-stream: samples() raises DeviceError, nothing read is lost."""
+    _umockdev_run()
+    system_python = "/usr/bin/python3"
+    probe = subprocess.run(
+        [system_python, "-c", "import gi; gi.require_version('UMockdev', '1.0')"],
+        capture_output=True,
+        timeout=30,
+    )
+    if probe.returncode != 0:
+        pytest.fail("system python3 lacks gi/UMockdev (Debian: python3-gi gir1.2-umockdev-1.0)")
+    rec = load_recording(hid_data / "yiynova-mvp20u-rh.hid")
+    reports = [ev.data for ev in rec.events[:200]]
+    files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports)
+    cmd = [
+        system_python,
+        str(HERE / "umockdev_unplug_controller.py"),
+        str(files.device),
+        str(files.ioctl),
+        str(files.script),
+        files.dev_node,
+        "--",
+        sys.executable,
+        str(HELPER),
+        files.dev_node,
+        str(len(reports)),
+        "--until-error",
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    lines = [json.loads(x) for x in proc.stdout.splitlines() if x.startswith("{")]
+    assert lines[-1] == {"controller_unplugged": True}
+    final = lines[-2]
+    assert final["stats"]["reports"] == len(reports)
+    assert final["error"] is not None and "unplugged" in final["error"]
+    assert "device gone" in proc.stderr  # reported in the log, once
+    got = [x for x in lines if "x" in x]
+    expected = _direct(rec.name, rec.descriptor, rec.vid, rec.pid, reports)
+    assert [{**g, "t": 0} for g in got] == [{**e, "t": 0} for e in expected]
