@@ -336,9 +336,11 @@ class ContactSim:
         w = self._w
         b = w * ((ydx + w * y0x) * d0x + (ydy + w * y0y) * d0y)
         tau: float | None
-        if f_h > 0.0 and (not self.events or (g0 + a > 0.0 and b + w * a <= 0.0)):
-            # Starts moving forward and (if located at all) not decelerating
-            # toward zero first: f' changes sign once, so no zero inside.
+        if f_h > 0.0 and (
+            not self.events or (g0 + a > 0.0 and not (b + w * a > 0.0 and w * b * h > b + w * a))
+        ):
+            # Positive at both ends and no interior minimum (f' changes sign
+            # at most once, from - to + only where f'(0) < 0 < f'(h)).
             tau = None
         elif not self.events:
             tau = h

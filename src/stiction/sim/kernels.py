@@ -112,18 +112,27 @@ def _f(g0: float, a: float, b: float, w: float, tau: float) -> float:
 
 
 def _polish(g0: float, a: float, b: float, w: float, lo: float, hi: float) -> float:
-    """Safeguarded Newton inside [lo, hi] with f(lo) > 0 >= f(hi); returns a point with f <= 0."""
+    """Safeguarded Newton inside [lo, hi] with f(lo) > 0 >= f(hi).
+
+    Stops when the Newton step no longer moves tau (one-sided Newton never
+    shrinks the bracket, so its width is not a usable stopping rule).
+    """
     tau = 0.5 * (lo + hi)
-    for _ in range(80):
+    for _ in range(64):
         e = math.exp(-w * tau)
         f = g0 + (a - b * tau) * e
         if f > 0.0:
             lo = tau
         else:
             hi = tau
-        if hi - lo <= 4e-16 * hi + 1e-300:
-            break
         fp = e * (w * b * tau - b - w * a)
-        nxt = tau - f / fp if fp != 0.0 else 0.5 * (lo + hi)
-        tau = nxt if lo < nxt < hi else 0.5 * (lo + hi)
-    return hi
+        step = f / fp if fp != 0.0 else math.inf
+        if abs(step) <= 4e-16 * tau + 1e-300:
+            return tau
+        nxt = tau - step
+        if not lo < nxt < hi:
+            nxt = 0.5 * (lo + hi)
+            if nxt in (lo, hi):
+                return hi
+        tau = nxt
+    return tau
