@@ -27,6 +27,7 @@ from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
     DeviceConfig,
     DeviceSlot,
+    Spec,
     open_source,
     parse_spec,
     start_reader,
@@ -37,6 +38,7 @@ from stiction.daemon.mapping import MappingConfig, make_mapping
 from stiction.daemon.publisher import Publisher
 from stiction.daemon.security import CurveConfig, Guard
 from stiction.daemon.stats import Window
+from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import DEFAULT_DISPLAY, default_scene, load_scene, parse_scene
@@ -44,6 +46,9 @@ from stiction.scene.model import Scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
 log = logging.getLogger("stiction.daemon")
+
+Opener = Callable[[Spec, DeviceConfig, bool, bool], SampleSource]
+"""open_source's signature: spec, its config, realtime, loop."""
 
 CONTROL_MARGIN_S = 0.0015
 """Stop waiting for control requests this long before a deadline and sleep the rest,
@@ -74,8 +79,14 @@ class Options:
 
 
 class Daemon:
-    def __init__(self, opts: Options, ctx: zmq.Context[Any] | None = None) -> None:
+    def __init__(
+        self,
+        opts: Options,
+        ctx: zmq.Context[Any] | None = None,
+        opener: Opener = open_source,
+    ) -> None:
         self.opts = opts
+        self.opener = opener
         self.virtual = opts.clock == "virtual"
         if opts.clock not in ("real", "virtual"):
             raise StictionError(f"clock must be 'real' or 'virtual', got {opts.clock!r}")
@@ -124,7 +135,7 @@ class Daemon:
             slot = DeviceSlot(config=cfg, spec=spec, name=cfg.spec)
             self.slots.append(slot)
             try:
-                self._install(slot, open_source(spec, cfg, not self.virtual, not self.virtual))
+                self._install(slot, self.opener(spec, cfg, not self.virtual, not self.virtual))
             except StictionError as exc:
                 if spec.finite:
                     raise
@@ -137,7 +148,10 @@ class Daemon:
         elif self.opts.hotplug and any(not s.spec.finite for s in self.slots):
             from stiction.daemon.hotplug import Hotplug
 
-            self.hotplug = Hotplug(lambda: self.slots)
+            opener = self.opener
+            self.hotplug = Hotplug(
+                lambda: self.slots, lambda s: opener(s.spec, s.config, True, True)
+            )
             self.hotplug.start()
         log.info(
             "started pub=%s control=%s rate=%s clock=%s scene=%s devices=%s",
@@ -324,7 +338,11 @@ class Daemon:
                 log.warning("step_failed device=%s error=%s", slot.name, exc)
                 contacts = []
             if finished:
-                contacts.extend(self.pipeline.end_all(run))
+                # The device is gone: every contact still live ends here, once, as "up".
+                ended = self.pipeline.end_all(run)
+                ids = {c["id"] for c in ended}
+                contacts = [c for c in contacts if c["id"] not in ids] + ended
+                contacts.sort(key=lambda c: c["id"])
             frame: dict[str, Any] = {
                 "v": protocol.SCHEMA_VERSION,
                 "kind": protocol.KIND_FRAME,

@@ -1,0 +1,84 @@
+"""Device specs, the per-device clock map, and handing samples to ticks."""
+
+from __future__ import annotations
+
+import math
+
+import pytest
+
+from stiction.daemon.devices import (
+    ClockMap,
+    DeviceConfig,
+    DeviceSlot,
+    Spec,
+    parse_spec,
+    take_live,
+)
+from stiction.drivers.sample import PenSample
+from stiction.errors import StictionError
+
+
+@pytest.mark.parametrize(
+    ("text", "spec"),
+    [
+        ("synthetic:demo", Spec("synthetic", "demo")),
+        ("synthetic:", Spec("synthetic", "demo")),
+        ("replay:/x/a.hid", Spec("replay", "/x/a.hid")),
+        ("replay:a.desc,b.events", Spec("replay", "a.desc", "b.events")),
+        ("/dev/hidraw3", Spec("hidraw", "/dev/hidraw3")),
+        ("/dev/input/event7", Spec("evdev", "/dev/input/event7")),
+        ("256C:006D", Spec("vidpid", "256c:006d")),
+        ("hid:256c:006d", Spec("hidraw", "256c:006d")),
+        ("evdev:/dev/input/event2", Spec("evdev", "/dev/input/event2")),
+        ("Wacom Intuos", Spec("name", "Wacom Intuos")),
+        ("name:huion", Spec("name", "huion")),
+    ],
+)
+def test_specs(text: str, spec: Spec) -> None:
+    assert parse_spec(text) == spec
+
+
+@pytest.mark.parametrize("text", ["", "  ", "replay:"])
+def test_bad_specs(text: str) -> None:
+    with pytest.raises(StictionError):
+        parse_spec(text)
+
+
+def test_clock_map_takes_the_fastest_delivery_and_relearns_a_step() -> None:
+    c = ClockMap()
+    c.observe(10.0, 110.004)
+    c.observe(10.01, 110.012)  # faster delivery: offset shrinks to 100.002
+    assert c.offset == pytest.approx(100.002)
+    c.observe(10.02, 110.030)  # a slow one only creeps
+    assert c.offset == pytest.approx(100.002 + 0.008e-3)
+    c.observe(50.0, 110.04)  # the device clock jumped (e.g. wall clock set)
+    assert c.offset == pytest.approx(60.04)
+    assert c.steps == 1
+
+
+def _slot() -> DeviceSlot:
+    return DeviceSlot(config=DeviceConfig("x"), spec=Spec("name", "x"), name="x")
+
+
+def test_take_live_holds_back_samples_after_the_tick_and_never_loses_one() -> None:
+    slot = _slot()
+    for i in range(6):  # device time 0..0.05, all delivered 1 ms later at loop 100+
+        slot.queue.append((PenSample(t=i * 0.01, x=0.0, y=0.0, tip=True), 100.001 + i * 0.01))
+    first, newest = take_live(slot, 99.99, 100.025)
+    assert [round(s.t, 6) for s in first] == [100.001, 100.011, 100.021]
+    assert newest == pytest.approx(100.021)
+    second, _ = take_live(slot, 100.025, 100.1)
+    assert len(second) == 3 and slot.samples == 6
+
+
+def test_take_live_rejects_non_finite_samples_and_keeps_time_order() -> None:
+    slot = _slot()
+    slot.queue.append((PenSample(t=0.0, x=math.nan, y=0.0, tip=True), 1.0))
+    slot.queue.append((PenSample(t=0.0, x=0.0, y=0.0, tip=True), 1.0))
+    slot.queue.append((PenSample(t=math.inf, x=0.0, y=0.0, tip=True), 1.0))
+    got, _ = take_live(slot, 0.5, 1.5)
+    assert len(got) == 1 and slot.rejected == 2
+    # a sample mapped before the previous tick is placed just after it
+    slot.queue.append((PenSample(t=-1.0, x=0.0, y=0.0, tip=True), 1.0))
+    got, _ = take_live(slot, 1.5, 2.0)
+    assert len(got) == 1 and 1.5 < got[0].t <= 2.0

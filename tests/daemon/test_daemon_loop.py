@@ -1,0 +1,267 @@
+"""The daemon loop end to end, with real ZeroMQ sockets and real drivers' replays."""
+
+from __future__ import annotations
+
+import math
+import threading
+from pathlib import Path
+from typing import Any
+
+import msgpack
+import pytest
+import zmq
+from conftest import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
+
+from stiction import protocol
+from stiction.daemon.devices import DeviceConfig
+from stiction.daemon.hotplug import Hotplug
+from stiction.daemon.service import Daemon, Options
+from stiction.drivers.sample import PenSample
+from stiction.sim import ContactSim, Params
+
+
+def _record(d: Daemon) -> list[tuple[bytes, bytes]]:
+    """Capture every published message (the real socket still sends them)."""
+    pub = d.publisher
+    assert pub is not None
+    sent: list[tuple[bytes, bytes]] = []
+    original = pub.send
+
+    def send(topic: bytes, message: Any) -> bytes:
+        payload = original(topic, message)
+        sent.append((topic, payload))
+        return payload
+
+    pub.send = send  # type: ignore[method-assign]
+    return sent
+
+
+def _run_virtual(endpoints: tuple[str, str], spec: str) -> list[tuple[bytes, bytes]]:
+    o = Options(pub=endpoints[0], control=endpoints[1], clock="virtual", hotplug=False)
+    o.devices = [DeviceConfig(spec)]
+    d = Daemon(o)
+    d.open()
+    sent = _record(d)
+    try:
+        assert d.run() == 0  # returns by itself at the end of the stream
+    finally:
+        d.close()
+    return sent
+
+
+def test_virtual_clock_replay_is_byte_identical_and_ends_by_itself(
+    evdev_data: Path, tmp_path: Path
+) -> None:
+    spec = f"replay:{evdev_data / 'uc-logic-wp5540u-pen.evemu'}"
+    a = _run_virtual((f"ipc://{tmp_path}/a", f"ipc://{tmp_path}/b"), spec)
+    b = _run_virtual((f"ipc://{tmp_path}/a", f"ipc://{tmp_path}/b"), spec)
+    assert a == b
+    frames = [msgpack.unpackb(p) for t, p in a if t.startswith(protocol.TOPIC_FRAME)]
+    assert len(frames) > 500
+    assert [f["tick"] for f in frames] == list(range(len(frames)))
+    dt = [b["t"] - a["t"] for a, b in zip(frames, frames[1:], strict=False)]
+    assert max(dt) == pytest.approx(0.01) and min(dt) == pytest.approx(0.01)
+    phases = {c["phase"] for f in frames for c in f["contacts"]}
+    assert {"stick", "slip", "hover"} <= phases
+    for f in frames:
+        protocol.validate_frame(f)
+
+
+def _replay_samples(path: Path) -> list[PenSample]:
+    from stiction.drivers.evdev.replay import open_replay
+
+    src = open_replay(path, realtime=False)
+    try:
+        return list(src.samples())
+    finally:
+        src.close()
+
+
+def test_daemon_gives_the_same_pointer_as_the_simulator_on_the_same_samples(
+    evdev_data: Path, endpoints: tuple[str, str]
+) -> None:
+    """`stiction simulate` had not landed when this was written: the reference
+    is ContactSim fed the same samples on the same tick grid."""
+    path = evdev_data / "uc-logic-wp5540u-pen.evemu"
+    sent = _run_virtual(endpoints, f"replay:{path}")
+    frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
+    samples = _replay_samples(path)
+    t0 = samples[0].t
+    sim = ContactSim(Params(), string=True)
+    i = 0
+    compared = 0
+    for f in frames:
+        t = t0 + f["tick"] / 100.0
+        assert f["t"] == t
+        batch = []
+        while i < len(samples) and samples[i].t <= t:
+            batch.append(samples[i])
+            i += 1
+        st = sim.advance(t, batch)
+        if st.phase == "up" and not f["contacts"]:
+            continue
+        (c,) = f["contacts"]
+        assert c["phase"] == st.phase
+        assert c["pointer_m"] == pytest.approx([st.pointer_x, st.pointer_y], abs=1e-12)
+        assert c["tension"] == pytest.approx(st.tension, abs=1e-15)
+        assert c["string"]["length_px"] == pytest.approx(st.string_px, abs=1e-9)
+        compared += st.phase in ("stick", "slip")
+    assert compared > 300
+
+
+def test_malformed_samples_are_counted_and_the_loop_keeps_going(
+    endpoints: tuple[str, str],
+) -> None:
+    samples = stroke(n=100)
+    samples[50] = PenSample(t=samples[50].t, x=math.nan, y=0.05, tip=True)
+    samples[60] = PenSample(t=math.inf, x=0.1, y=0.05, tip=True)
+    d = make_daemon(endpoints, {"replay:nan": ListSource(samples)}, clock="virtual")
+    sent = _record(d)
+    try:
+        d.run()
+        stats = d.stats()
+    finally:
+        d.close()
+    assert stats["devices"]["test-pen"]["rejected"] == 2
+    frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
+    assert frames[-1]["contacts"][-1]["phase"] == "up"
+    for f in frames:
+        for c in f["contacts"]:
+            assert all(math.isfinite(v) for v in c["pointer_m"] + c["touch_m"])
+
+
+def test_a_subscriber_that_never_reads_does_not_stall_the_loop(
+    endpoints: tuple[str, str],
+) -> None:
+    d = make_daemon(
+        endpoints, {"replay:long": ListSource(stroke(n=20_000, dt=0.001))}, clock="virtual", hwm=5
+    )
+    ctx = zmq.Context.instance()
+    dead = subscribe(ctx, d, endpoints[0])
+    dead.rcvhwm = 1
+    assert d.publisher is not None
+    before = d.publisher.sent
+    try:
+        d.run()
+        assert d.schedule.ticks > 2000
+        assert d.publisher.sent - before == d.schedule.ticks + 1  # every frame + the scene
+    finally:
+        dead.close()
+        d.close()
+
+
+def test_control_ops_and_bad_requests(endpoints: tuple[str, str]) -> None:
+    gate = threading.Event()
+    d = make_daemon(endpoints, {"pen": ListSource(stroke(n=50), gate=gate)})
+    ctx = zmq.Context.instance()
+    sub = subscribe(ctx, d, endpoints[0])
+    ctl = endpoints[1]
+    with Runner(d):
+        assert request(ctx, ctl, protocol.make_request("ping"))["ok"]
+        bad = [
+            b"not msgpack \xc1",
+            msgpack.packb([1, 2]),
+            msgpack.packb({"v": 1, "op": "format_disk"}),
+            msgpack.packb({"v": 99, "op": "ping"}),
+            protocol.make_request("set_scene", toml="[scene]\ndisplay = [1, -1]\n"),
+            protocol.make_request("set_scene", path="/no/such/scene.toml"),
+            protocol.make_request("set_scene"),
+            protocol.make_request("set_params", mu_s=-1.0),
+            protocol.make_request("set_params", rate=50.0),
+            protocol.make_request("set_params", material="nope", mu_s=0.3),
+            protocol.make_request("get_params", extra=1),
+        ]
+        for payload in bad:
+            reply = request(ctx, ctl, payload)
+            assert reply["ok"] is False and reply["error"], payload
+        reply = request(ctx, ctl, protocol.make_request("set_scene", toml="[scene]\nx = 1\n"))
+        assert reply["error"].startswith("<control>:2: scene.x: unknown key")
+        assert request(ctx, ctl, protocol.make_request("get_scene"))["scene"]["name"] == "default"
+
+        text = '[scene]\nname = "ice"\noutside = "ice"\n[materials.ice]\nmu_s = 0.1\nmu_k = 0.05\n'
+        reply = request(ctx, ctl, protocol.make_request("set_scene", toml=text))
+        assert reply["ok"] and reply["scene"]["name"] == "ice"
+        got = request(ctx, ctl, protocol.make_request("get_scene"))
+        assert got["toml"] == text
+        reply = request(ctx, ctl, protocol.make_request("set_params", material="ice", mu_s=0.2))
+        assert reply["materials"]["ice"]["mu_s"] == 0.2
+        reply = request(ctx, ctl, protocol.make_request("set_params", k=0.2, g=9.81))
+        assert reply["params"]["g"] == 9.81 and reply["materials"]["ice"]["k"] == 0.2
+        devices = request(ctx, ctl, protocol.make_request("devices"))["devices"]
+        assert devices[0]["name"] == "test-pen" and devices[0]["state"] == "open"
+        stats = request(ctx, ctl, protocol.make_request("stats"))["stats"]
+        assert stats["control_errors"] == len(bad) + 1
+        assert stats["scene_errors"] == 3
+        gate.set()
+    messages = drain(sub, 50)
+    scenes = [m for t, m in messages if t == protocol.TOPIC_SCENE]
+    assert [s["scene"]["name"] for s in scenes] == ["default", "ice", "ice", "ice"]
+    sub.close()
+
+
+def test_snapshot_then_stream_has_no_gap(endpoints: tuple[str, str]) -> None:
+    gate = threading.Event()
+    d = make_daemon(endpoints, {"pen": ListSource(stroke(n=50), gate=gate)})
+    ctx = zmq.Context.instance()
+    sub = subscribe(ctx, d, endpoints[0])
+    ticks: list[int] = []
+    seen = threading.Event()
+    d.on_tick = lambda n: (ticks.append(n), seen.set() if n >= 5 else None)  # type: ignore[func-returns-value]
+    with Runner(d):
+        assert seen.wait(10)
+        snap = request(ctx, endpoints[1], protocol.make_request("snapshot"))
+        assert snap["ok"] and snap["tick"] >= 5
+        assert snap["scene"]["name"] == "default"
+        assert snap["frames"]["test-pen"]["tick"] == snap["tick"]
+        after: list[int] = []
+        while len(after) < 5:
+            assert sub.poll(5000)
+            topic, payload = sub.recv_multipart()
+            m = msgpack.unpackb(payload)
+            if m["kind"] == "frame" and m["tick"] > snap["tick"]:
+                after.append(m["tick"])
+        assert after == list(range(snap["tick"] + 1, snap["tick"] + 6))
+        gate.set()
+    sub.close()
+
+
+def test_unplugged_device_ends_its_contacts_and_is_reopened(endpoints: tuple[str, str]) -> None:
+    # The first device stays touching, then vanishes (DeviceError) mid-stroke.
+    pressing = [PenSample(t=i * 0.005, x=0.05 + i * 1e-4, y=0.05, tip=True) for i in range(20)]
+    gate = threading.Event()
+    first = ListSource(pressing, fail_at_end=True, gate=gate)
+    second = ListSource(stroke(n=10), gate=threading.Event())
+    d = make_daemon(endpoints, {"pen": first})
+    d.hotplug = Hotplug(lambda: d.slots, lambda s: second, use_udev=False)
+    ctx = zmq.Context.instance()
+    sub = subscribe(ctx, d, endpoints[0])
+    thread_alive = False
+    try:
+        with Runner(d) as runner:
+            _wait_for(sub, lambda m: any(c["phase"] == "stick" for c in m.get("contacts", [])))
+            gate.set()
+            gone = _wait_for(sub, lambda m: any(c["phase"] == "up" for c in m.get("contacts", [])))
+            assert [c["phase"] for c in gone["contacts"]] == ["up"]
+            assert gone["contacts"][0]["pointer_m"] == gone["contacts"][0]["touch_m"]
+            assert d.slots[0].state == "absent"
+            assert d.hotplug.scan_once() == 1
+            back = _wait_for(sub, lambda m: m.get("tick", -1) > gone["tick"])
+            assert back["device"] == "test-pen"
+            devs = request(ctx, endpoints[1], protocol.make_request("devices"))["devices"]
+            assert devs[0]["state"] == "open"
+            thread_alive = runner.thread.is_alive()
+            second.gate.set()  # type: ignore[union-attr]
+    finally:
+        sub.close()
+    assert thread_alive and first.closed.is_set()
+    assert d.slots[0].reopened == 1
+
+
+def _wait_for(sub: zmq.Socket[Any], pred: Any, limit: int = 2000) -> dict[str, Any]:
+    for _ in range(limit):
+        assert sub.poll(5000), "no message within 5 s"
+        topic, payload = sub.recv_multipart()
+        m = msgpack.unpackb(payload)
+        if m.get("kind") == "frame" and pred(m):
+            return dict(m)
+    raise AssertionError("condition not met")
