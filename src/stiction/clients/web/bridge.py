@@ -48,7 +48,7 @@ class BridgeStats:
     state: str = "waiting"
 
 
-@dataclass
+@dataclass(eq=False)
 class Page:
     """One connected page: which streams changed since its last send."""
 
@@ -185,11 +185,8 @@ class Bridge:
             if since is None:
                 self._started_at = since = now
         if now - since >= SILENT_AFTER:
-            self._set_status(
-                "gone",
-                f"no frames from the daemon at {self.pub} for {now - since:.0f} s: "
-                "is stictiond running?",
-            )
+            what = "stopped sending frames" if self._last_frame_at else "sends no frames"
+            self._set_status("gone", f"the daemon at {self.pub} {what}: is stictiond running?")
 
     # -- the WebSocket side -----------------------------------------------------
 

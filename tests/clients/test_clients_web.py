@@ -1,0 +1,224 @@
+"""The web renderer in real headless Chromium: the page connects through the
+bridge, and after a replayed stroke the canvas shows the pointer and the
+string where the last frame says."""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import json
+import threading
+import urllib.request
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+from conftest import SCENE, FakeDaemon, make_frame, scene_message
+from stiction import protocol
+from stiction.clients import recording
+from stiction.clients.messages import Frame
+from stiction.clients.replay import Replayer
+from stiction.clients.web import server
+
+pytestmark = pytest.mark.browser
+
+CHROMIUM = "/usr/bin/chromium"
+CHROMIUM_ARGS = [
+    "--no-sandbox",
+    "--disable-gpu",
+    "--disable-background-networking",
+    "--disable-component-update",
+    "--disable-sync",
+    "--no-first-run",
+]
+
+
+class WebServer:
+    """`stiction web` in a thread with its own event loop, on a free port."""
+
+    def __init__(self, pub: str, control: str | None) -> None:
+        self.loop = asyncio.new_event_loop()
+        self.ready: asyncio.Future[str] = self.loop.create_future()
+        self.task: asyncio.Task[None] | None = None
+        self.thread = threading.Thread(target=self._main, args=(pub, control), daemon=True)
+        self.thread.start()
+        self.url = asyncio.run_coroutine_threadsafe(self._url(), self.loop).result(30)
+
+    async def _url(self) -> str:
+        return await self.ready
+
+    def _main(self, pub: str, control: str | None) -> None:
+        asyncio.set_event_loop(self.loop)
+        self.task = self.loop.create_task(
+            server.run(pub, control, "127.0.0.1", 0, ready=self.ready)
+        )
+        with contextlib.suppress(asyncio.CancelledError):
+            self.loop.run_until_complete(self.task)
+        self.loop.close()
+
+    def status(self) -> dict[str, Any]:
+        with urllib.request.urlopen(self.url + "status", timeout=10) as r:
+            return dict(json.loads(r.read()))
+
+    def stop(self) -> None:
+        if self.task is not None:
+            self.loop.call_soon_threadsafe(self.task.cancel)
+        self.thread.join(30)
+
+
+@pytest.fixture(scope="module")
+def browser() -> Iterator[Any]:
+    if not Path(CHROMIUM).exists():
+        pytest.fail(f"{CHROMIUM} not found: install Debian's chromium (make sysdeps)")
+    from playwright.sync_api import sync_playwright
+
+    with sync_playwright() as p:
+        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
+        yield b
+        b.close()
+
+
+def stroke_frames() -> list[dict[str, Any]]:
+    """Slip from x=40 to 98, then stick at 100 while the touch runs on to 218."""
+    frames = []
+    for i in range(30):
+        x = 40.0 + 2 * i
+        c = {
+            "id": 0,
+            "phase": "slip",
+            "touch_m": [x / 1e4, 0.015],
+            "pointer_m": [x / 1e4, 0.015],
+            "touch_px": [x, 150.0],
+            "pointer_px": [x, 150.0],
+            "tension": 0.0,
+            "material": "sticky",
+            "string": {"length_px": 0.0, "dir": [0.0, 0.0]},
+        }
+        frames.append(make_frame(i, contacts=[c]))
+    for j in range(30):
+        tx = 100.0 + 4 * (j + 1)
+        c = {
+            "id": 0,
+            "phase": "stick",
+            "touch_m": [tx / 1e4, 0.015],
+            "pointer_m": [0.01, 0.015],
+            "touch_px": [tx, 150.0],
+            "pointer_px": [100.0, 150.0],
+            "tension": 0.1 * (tx - 100) / 1e4,
+            "material": "sticky",
+            "string": {"length_px": 0.8 * (tx - 100.0), "dir": [1.0, 0.0]},
+        }
+        frames.append(make_frame(30 + j, contacts=[c]))
+    return frames
+
+
+def write_recording(path: Path) -> list[dict[str, Any]]:
+    frames = stroke_frames()
+    messages = [(protocol.TOPIC_SCENE, protocol.encode(scene_message(-1)), 0.0)]
+    messages += [
+        (protocol.frame_topic("pen"), protocol.encode(f), 0.01 * i) for i, f in enumerate(frames)
+    ]
+    typed = [Frame.from_wire(protocol.validate_frame(f)) for f in frames]
+    recording.write(path, messages, typed, {"scene": SCENE})
+    return frames
+
+
+PIXELS_JS = """
+([points]) => {
+  const c = document.getElementById('view');
+  const ctx = c.getContext('2d');
+  return {size: [c.width, c.height],
+          px: points.map(([x, y]) => Array.from(ctx.getImageData(x, y, 1, 1).data))};
+}
+"""
+
+
+def is_black(p: list[int]) -> bool:
+    return p[0] < 40 and p[1] < 40 and p[2] < 40
+
+
+def is_string(p: list[int]) -> bool:  # #e8710a
+    return p[0] > 200 and 80 < p[1] < 140 and p[2] < 50
+
+
+def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: Path) -> None:
+    frames = write_recording(short_dir / "stroke.npz")
+    rec = recording.read(short_dir / "stroke.npz")
+    pub, ctl = f"ipc://{short_dir}/pub", f"ipc://{short_dir}/ctl"
+    player = Replayer(rec, pub, ctl)
+    done = threading.Event()
+
+    def play() -> None:
+        if player.wait_for_subscriber(30):
+            player.run(speed=4.0)
+        player.hold(done.is_set, 120)
+
+    t = threading.Thread(target=play, daemon=True)
+    t.start()
+    web = WebServer(pub, ctl)
+    page = browser.new_page(viewport={"width": 800, "height": 600})
+    try:
+        page.goto(web.url)
+        last = frames[-1]["tick"]
+        page.wait_for_function(
+            f"window.stiction && window.stiction.drawnTick === {last}", timeout=30_000
+        )
+        # Everything below reads the canvas itself: what a person would see.
+        points = [
+            (100, 150),  # the pointer, stuck
+            (147, 150),  # the middle of the string
+            (185, 150),  # just inside the string's end (100 + 0.8 * 120 = 196)
+            (206, 150),  # beyond the string's end, before the touch ring at 220
+            (60, 150),  # where the pointer was during the slip: cleared since
+            (30, 40),  # inside the sticky region, away from everything
+            (10, 290),  # still the sticky band
+        ]
+        got = page.evaluate(PIXELS_JS, [points])
+        assert got["size"] == [400, 300]  # the scene's display size, 1:1 pixels
+        px = got["px"]
+        assert is_black(px[0]), px[0]
+        assert is_string(px[1]) and is_string(px[2]), px[1:3]
+        assert not is_string(px[3]) and not is_black(px[3]), px[3]
+        assert not is_black(px[4]) and not is_string(px[4]), px[4]
+        assert px[5] == px[6] and px[5][:3] != [250, 250, 250], px[5]
+        status = page.inner_text("#status")
+        assert "stick" in status and "string 96.0 px" in status and "sticky" in status
+        page.screenshot(path=str(short_dir / "stroke.png"))
+        # When the stream stops the page says so, in words.
+        page.wait_for_function("window.stiction.status === 'gone'", timeout=30_000)
+        assert page.is_visible("#banner")
+        assert "is stictiond running?" in page.inner_text("#banner")
+    finally:
+        page.close()
+        web.stop()
+        done.set()
+        t.join(30)
+        player.close()
+
+
+def test_bridge_survives_bad_frames_and_reports_a_newer_schema(
+    browser: Any, daemon: FakeDaemon
+) -> None:
+    web = WebServer(daemon.pub_endpoint, daemon.control_endpoint)
+    page = browser.new_page(viewport={"width": 800, "height": 600})
+    try:
+        page.goto(web.url)
+        daemon.wait_subscribers(2)
+        page.wait_for_function("window.stiction.scene !== null", timeout=30_000)  # from snapshot
+        daemon.send_raw(b"frame.pen", b"\xc1 not msgpack")
+        daemon.send({**make_frame(0), "v": protocol.SCHEMA_VERSION + 1})
+        page.wait_for_function("window.stiction.status === 'error'", timeout=30_000)
+        assert "newer than this client" in page.inner_text("#banner")
+        good = stroke_frames()[-1]
+        daemon.send(good)
+        page.wait_for_function(f"window.stiction.drawnTick === {good['tick']}", timeout=30_000)
+        assert page.evaluate("window.stiction.status") == "live"
+        px = page.evaluate(PIXELS_JS, [[(100, 150)]])["px"][0]
+        assert is_black(px)
+        st = web.status()
+        assert st["errors"] >= 2 and st["frames"] == 1 and st["pages"] == 1
+    finally:
+        page.close()
+        web.stop()
