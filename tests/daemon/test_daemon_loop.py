@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 import threading
 from pathlib import Path
@@ -10,8 +11,8 @@ from typing import Any
 import msgpack
 import pytest
 import zmq
-from conftest import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
 
+from conftest import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
 from stiction import protocol
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.hotplug import Hotplug
@@ -59,7 +60,7 @@ def test_virtual_clock_replay_is_byte_identical_and_ends_by_itself(
     frames = [msgpack.unpackb(p) for t, p in a if t.startswith(protocol.TOPIC_FRAME)]
     assert len(frames) > 500
     assert [f["tick"] for f in frames] == list(range(len(frames)))
-    dt = [b["t"] - a["t"] for a, b in zip(frames, frames[1:], strict=False)]
+    dt = [b["t"] - a["t"] for a, b in itertools.pairwise(frames)]
     assert max(dt) == pytest.approx(0.01) and min(dt) == pytest.approx(0.01)
     phases = {c["phase"] for f in frames for c in f["contacts"]}
     assert {"stick", "slip", "hover"} <= phases
@@ -216,7 +217,7 @@ def test_snapshot_then_stream_has_no_gap(endpoints: tuple[str, str]) -> None:
         after: list[int] = []
         while len(after) < 5:
             assert sub.poll(5000)
-            topic, payload = sub.recv_multipart()
+            _, payload = sub.recv_multipart()
             m = msgpack.unpackb(payload)
             if m["kind"] == "frame" and m["tick"] > snap["tick"]:
                 after.append(m["tick"])
@@ -260,7 +261,7 @@ def test_unplugged_device_ends_its_contacts_and_is_reopened(endpoints: tuple[str
 def _wait_for(sub: zmq.Socket[Any], pred: Any, limit: int = 2000) -> dict[str, Any]:
     for _ in range(limit):
         assert sub.poll(5000), "no message within 5 s"
-        topic, payload = sub.recv_multipart()
+        _, payload = sub.recv_multipart()
         m = msgpack.unpackb(payload)
         if m.get("kind") == "frame" and pred(m):
             return dict(m)
