@@ -11,7 +11,7 @@ because coordinates that are not metres would silently break the physics.
 
 from __future__ import annotations
 
-import math
+from collections import Counter
 from dataclasses import dataclass
 
 from stiction.drivers.hid.decoder import ReportDecoder
@@ -262,9 +262,10 @@ class ContactTracker:
     a frame, 0 in the ones that follow) are followed across reports.
     """
 
-    def __init__(self) -> None:
+    def __init__(self, stats: Counter[str] | None = None) -> None:
         self.active: dict[int, bool] = {}
         self.remaining = 0
+        self.stats: Counter[str] = stats if stats is not None else Counter()
 
     def samples(self, t: float, m: ReportMapping, values: tuple[int, ...]) -> list[PenSample]:
         out: list[PenSample] = []
@@ -313,8 +314,12 @@ class ContactTracker:
         self.active[contact] = in_range
         x = (v[c.x.element] - c.x.logical_min) * c.x.metres_per_unit
         y = (v[c.y.element] - c.y.logical_min) * c.y.metres_per_unit
-        if not (math.isfinite(x) and math.isfinite(y)):
-            return None
+        if not (0.0 <= x <= c.width_m and 0.0 <= y <= c.height_m):
+            # Outside the declared logical range: garbage from the device, kept
+            # on the surface so a glitch cannot throw the pen metres away.
+            self.stats["clamped_positions"] += 1
+            x = min(max(x, 0.0), c.width_m)
+            y = min(max(y, 0.0), c.height_m)
         buttons = 0
         if BARREL in el and v[el[BARREL]]:
             buttons |= 1

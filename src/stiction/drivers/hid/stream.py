@@ -22,7 +22,8 @@ class ReportStream:
 
     Counters: `reports` (all reports fed), `samples`, `ignored` (valid
     reports that carry no contact, e.g. vendor or mouse reports),
-    `short_reports`, `unknown_report_id`, `empty_reports`, `bad_values`.
+    `short_reports`, `unknown_report_id`, `empty_reports`, `bad_values`, and
+    `clamped_positions` (coordinates outside the declared range, kept on the surface).
     The first few malformed reports are logged, the rest only counted, so a
     misbehaving device cannot flood the log.
     """
@@ -47,8 +48,8 @@ class ReportStream:
         self.numbered = desc.numbered
         self.known_ids = set(desc.input_reports)
         self.kind = device_kind(desc, pen_reports)
-        self.tracker = ContactTracker()
         self.stats: Counter[str] = Counter()
+        self.tracker = ContactTracker(self.stats)
         first = next(iter(self.mappings.values()), None)
         self.surface_size: tuple[float, float] | None = None
         if first is not None:

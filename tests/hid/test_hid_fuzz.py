@@ -1,0 +1,116 @@
+"""Property-based fuzzing of the descriptor parser and the report path.
+
+Bounded for `make test` (the derandomized "ci" profile, 200 examples per
+property). The longer, random run:
+
+    HYPOTHESIS_PROFILE=explore .venv/bin/python -m pytest tests/hid/test_hid_fuzz.py
+
+(5000 examples per property; see docs/devices.md).
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from hypothesis import given
+from hypothesis import strategies as st
+
+from stiction.drivers.fake.tablet import UGEE_M708_V2_DESCRIPTOR
+from stiction.drivers.hid.decoder import ReportDecoder, field_values
+from stiction.drivers.hid.descriptor import ReportDescriptor, parse_descriptor
+from stiction.drivers.hid.recording import load_recording
+from stiction.drivers.hid.stream import ReportStream
+from stiction.errors import DescriptorError, DeviceError
+
+DATA = Path(__file__).resolve().parents[3] / "shared" / "data" / "hid"
+REAL = [load_recording(p).descriptor for p in sorted(DATA.glob("*.hid"))] or [
+    UGEE_M708_V2_DESCRIPTOR
+]
+
+
+def _parse_or_error(raw: bytes) -> ReportDescriptor | None:
+    try:
+        return parse_descriptor(raw)
+    except DescriptorError as exc:
+        assert str(exc)
+        return None
+
+
+def _exercise(desc: ReportDescriptor, reports: list[bytes]) -> None:
+    """Everything downstream of a parsed descriptor: no exception may escape."""
+    for report in desc.input_reports.values():
+        dec = ReportDecoder(report)
+        data = b"\xa5" * report.byte_size
+        values = list(dec.decode(data))
+        reference = [v for f in report.fields if not f.constant for v in field_values(f, data)]
+        assert values == reference
+    try:
+        stream = ReportStream(desc, "fuzz", size_m=(0.2, 0.1))
+    except DeviceError:
+        return  # e.g. an empty X range: refused with a message, which is fine
+    for i, r in enumerate(reports):
+        for s in stream.feed(float(i), r):
+            assert s.x == s.x and s.y == s.y  # never NaN
+    assert stream.stats["reports"] == len(reports)
+
+
+@given(st.binary(max_size=300), st.lists(st.binary(max_size=40), max_size=20))
+def test_random_bytes(raw: bytes, reports: list[bytes]) -> None:
+    desc = _parse_or_error(raw)
+    if desc is not None:
+        _exercise(desc, reports)
+
+
+@st.composite
+def mutated_descriptor(draw: st.DrawFn) -> bytes:
+    """A real descriptor with a few bytes flipped, cut, inserted or dropped."""
+    raw = bytearray(draw(st.sampled_from(REAL)))
+    for _ in range(draw(st.integers(1, 4))):
+        if not raw:
+            break
+        i = draw(st.integers(0, len(raw) - 1))
+        op = draw(st.sampled_from(["flip", "set", "cut", "insert", "drop"]))
+        if op == "flip":
+            raw[i] ^= 1 << draw(st.integers(0, 7))
+        elif op == "set":
+            raw[i] = draw(st.integers(0, 255))
+        elif op == "cut":
+            del raw[i:]
+        elif op == "insert":
+            raw.insert(i, draw(st.integers(0, 255)))
+        else:
+            del raw[i]
+    return bytes(raw)
+
+
+@given(mutated_descriptor(), st.lists(st.binary(min_size=1, max_size=70), max_size=30))
+def test_mutated_real_descriptors(raw: bytes, reports: list[bytes]) -> None:
+    desc = _parse_or_error(raw)
+    if desc is not None:
+        _exercise(desc, reports)
+
+
+REPORT_IDS = st.sampled_from([7, 7, 7, 8, 11, 0, 255])
+
+
+@given(
+    st.lists(
+        st.one_of(
+            st.binary(max_size=80),
+            st.builds(lambda rid, rest: bytes([rid]) + rest, REPORT_IDS, st.binary(max_size=70)),
+        ),
+        max_size=200,
+    )
+)
+def test_any_report_bytes_on_a_real_tablet(reports: list[bytes]) -> None:
+    stream = ReportStream(parse_descriptor(UGEE_M708_V2_DESCRIPTOR), "ugee")
+    n = 0
+    for i, r in enumerate(reports):
+        for s in stream.feed(float(i), r):
+            n += 1
+            assert 0.0 <= s.x <= 0.2539746 and 0.0 <= s.y <= 0.1523746
+            assert s.pressure is not None and 0.0 <= s.pressure <= 1.0
+    assert stream.stats["samples"] == n
+    assert stream.stats["reports"] == len(reports)
+    skipped = sum(stream.stats[k] for k in ("empty_reports", "short_reports", "unknown_report_id"))
+    assert skipped + stream.stats["ignored"] <= len(reports)
