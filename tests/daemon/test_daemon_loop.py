@@ -244,7 +244,14 @@ def test_unplugged_device_ends_its_contacts_and_is_reopened(endpoints: tuple[str
             gone = _wait_for(sub, lambda m: any(c["phase"] == "up" for c in m.get("contacts", [])))
             assert [c["phase"] for c in gone["contacts"]] == ["up"]
             assert gone["contacts"][0]["pointer_m"] == gone["contacts"][0]["touch_m"]
+            # Wait until the loop has finished the tick that ended the device.
+            target = {"tick": gone["tick"] + 1}
+            passed = threading.Event()
+            d.on_tick = lambda n: passed.set() if n >= target["tick"] else None  # type: ignore[func-returns-value]
+            assert passed.wait(10)
             assert d.slots[0].state == "absent"
+            assert d.slots[0].thread is not None
+            d.slots[0].thread.join(10)
             assert d.hotplug.scan_once() == 1
             back = _wait_for(sub, lambda m: m.get("tick", -1) > gone["tick"])
             assert back["device"] == "test-pen"
