@@ -28,7 +28,6 @@ SETTLE_DISTANCE_M = 1e-6
 """A pen leaving friction for a pass-through area is simulated without friction
 until it is this close to the touch point, so the pointer glides back instead
 of jumping; then its simulator is dropped."""
-SETTLE_SPEED_M_S = 1e-4
 
 
 class ContactStateLike(Protocol):
@@ -219,7 +218,7 @@ class Pipeline:
     @staticmethod
     def _settled(state: ContactStateLike) -> bool:
         d = math.hypot(state.touch_x - state.pointer_x, state.touch_y - state.pointer_y)
-        return d < SETTLE_DISTANCE_M and math.hypot(state.vx, state.vy) < SETTLE_SPEED_M_S
+        return d < SETTLE_DISTANCE_M
 
     def _material_name(self, dev: DeviceRun, track: Track, touching: bool) -> str:
         if not self.scene.regions:
