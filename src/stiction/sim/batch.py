@@ -312,7 +312,15 @@ class BatchSim:
         s[VY, to_stick] = 0.0
         mv = ~none & ~to_stick
         if mv.any():
-            self._decide_subset(s, md, mv, True)
+            nx = k * (s[UX] - s[PX]) + c * s[UDX]
+            ny = k * (s[UY] - s[PY]) + c * s[UDY]
+            nn = np.sqrt(nx * nx + ny * ny)
+            ok = mv & (nn > 0.0)
+            s[DX] = np.where(ok, nx / nn, s[DX])
+            s[DY] = np.where(ok, ny / nn, s[DY])
+            s[VX, mv] = 0.0
+            s[VY, mv] = 0.0
+            md[mv] = MOVING
         return none, t0
 
     def _moving(self, s: F, md: npt.NDArray[np.int8]) -> tuple[B, F]:
@@ -623,12 +631,9 @@ def rest_time_v(g0: F, a: F, b: F, w: float, h: F, f_h: F) -> F:
     c2 = neg & ~c1 & (d0 > 0.0) & interior & (fc > 0.0)
     tau[neg & ~c1 & ~c2] = 0.0
     lo[c2] = tc[c2]
-    pos = ~neg
+    pos = ~neg & (f0 > 0.0)  # from rest and moving forward at h: no event (kernels)
     pint = pos & (d0 < 0.0) & interior
-    tau[pos & ~pint & ~((f0 > 0.0) | (d0 > 0.0))] = 0.0
-    hit = pint & (fc <= 0.0)
-    tau[hit & (f0 <= 0.0)] = 0.0
-    c3 = hit & (f0 > 0.0)
+    c3 = pint & (fc <= 0.0)
     hi[c3] = tc[c3]
     need = c1 | c2 | c3
     if need.any():

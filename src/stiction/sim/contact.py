@@ -223,6 +223,17 @@ class ContactSim:
         else:
             self._mode = RESTING
 
+    def _start_moving(self, udx: float, udy: float) -> None:
+        """The net force has just reached F_k: move along it (no re-test, which
+        round-off at the crossing could fail and leave the pen resting forever)."""
+        nx = self._k * (self._ux - self._px) + self._c * udx
+        ny = self._k * (self._uy - self._py) + self._c * udy
+        n = math.sqrt(nx * nx + ny * ny)
+        if n > 0.0:
+            self._dx, self._dy = nx / n, ny / n
+        self._vx = self._vy = 0.0
+        self._mode = MOVING
+
     # ------------------------------------------------------------ one segment
     def _run(self, h: float, udx: float, udy: float, u1x: float, u1y: float) -> None:
         """Advance over h seconds with the touch moving at (udx, udy), ending at u1."""
@@ -275,7 +286,7 @@ class ContactSim:
                 if ts is not None and ts <= tau:
                     self._mode = STICK
                 else:
-                    self._rest_decide(udx, udy, from_stick=True)
+                    self._start_moving(udx, udy)
             else:
                 n = math.ceil(left / self._hmax * (1.0 - 1e-12))
                 piece = left / n if n > 1 else left

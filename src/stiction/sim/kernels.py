@@ -97,12 +97,16 @@ def rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> 
         else:
             return 0.0
     else:
+        if f0 <= 0.0:
+            # Starting from rest (f(0) = 0) along the net force: at the very
+            # instant the net force reaches F_k the acceleration is zero and
+            # round-off may make f'(0) a hair negative; moving forward at the
+            # end of the step means it did start.
+            return None
         if not (d0 < 0.0 and interior):
-            return None if f0 > 0.0 or d0 > 0.0 else 0.0
+            return None
         if _f(g0, a, b, w, tc) > 0.0:
             return None
-        if f0 <= 0.0:
-            return 0.0
         lo, hi = 0.0, tc
     return _polish(g0, a, b, w, lo, hi)
 
