@@ -147,6 +147,7 @@ class _Window:
     columns: npt.NDArray[np.intp]
     shifts: npt.NDArray[np.uint64]
     masks: npt.NDArray[np.uint64]
+    contiguous: tuple[int, int] | None  # columns as a slice, when they are consecutive
 
 
 class ReportDecoder:
@@ -158,22 +159,65 @@ class ReportDecoder:
         self.byte_size = report.byte_size
         self.elements = _elements(report)
         self.decode: Callable[[bytes], tuple[int, ...]] = _compile_one(self.elements)
-        self._windows, self._wide = self._plan_windows()
-        signed = [i for i, e in enumerate(self.elements) if e.signed]
-        self._signed_cols = np.array(signed, dtype=np.intp)
-        self._sign_bits = np.array(
-            [1 << (self.elements[i].bit_size - 1) for i in signed], dtype=np.int64
-        )
+        self._aligned, self._in_byte, rest = self._plan_simple()
+        self._windows, self._wide = self._plan_windows(rest)
+        self._dtypes: dict[int, np.dtype[np.void]] = {}
+        # Sign extension is needed only where values come out of a 64-bit window.
+        in_windows = {int(c) for w in self._windows for c in w.columns}
+        self._window_signed = [
+            (i, 1 << (e.bit_size - 1))
+            for i, e in enumerate(self.elements)
+            if e.signed and i in in_windows
+        ]
 
-    def _plan_windows(self) -> tuple[list[_Window], list[int]]:
+    def _plan_simple(
+        self,
+    ) -> tuple[list[tuple[int, str, int]], list[tuple[int, int, int, int]], list[int]]:
+        """Split elements into byte-aligned integers, values inside one byte, and the rest.
+
+        Aligned 8/16/32/64-bit values are read through a structured dtype
+        view of the rows (no arithmetic at all); values inside one byte
+        with uint8 shifts; only the rest needs 64-bit windows.
+        """
+        aligned: list[tuple[int, str, int]] = []
+        in_byte: list[tuple[int, int, int, int]] = []
+        rest: list[int] = []
+        for i, e in enumerate(self.elements):
+            start, shift = divmod(e.bit_offset, 8)
+            code = _STRUCT_CODES.get((e.bit_size, e.signed))
+            if shift == 0 and code is not None:
+                aligned.append((i, "<" + code, start))
+            elif shift + e.bit_size <= 8 and not e.signed:
+                in_byte.append((i, start, shift, (1 << e.bit_size) - 1))
+            else:
+                rest.append(i)
+        return aligned, in_byte, rest
+
+    def _dtype(self, stride: int) -> np.dtype[np.void]:
+        dt = self._dtypes.get(stride)
+        if dt is None:
+            dt = np.dtype(
+                {
+                    "names": [f"e{i}" for i, _, _ in self._aligned],
+                    "formats": [code for _, code, _ in self._aligned],
+                    "offsets": [off for _, _, off in self._aligned],
+                    "itemsize": stride,
+                }
+            )
+            self._dtypes[stride] = dt
+        return dt
+
+    def _plan_windows(self, rest: list[int]) -> tuple[list[_Window], list[int]]:
         windows: list[_Window] = []
         wide: list[int] = []
-        order = sorted(range(len(self.elements)), key=lambda i: self.elements[i].bit_offset)
+        order = sorted(rest, key=lambda i: self.elements[i].bit_offset)
         current: list[int] = []
         base = 0
 
         def flush() -> None:
             if current:
+                run = (current[0], current[-1] + 1)
+                consecutive = current == list(range(*run))
                 windows.append(
                     _Window(
                         base,
@@ -186,6 +230,7 @@ class ReportDecoder:
                             [(1 << self.elements[i].bit_size) - 1 for i in current],
                             dtype=np.uint64,
                         ),
+                        run if consecutive else None,
                     )
                 )
 
@@ -210,30 +255,60 @@ class ReportDecoder:
             out.setdefault(e.usage, []).append(v)
         return out
 
+    @property
+    def padded_length(self) -> int:
+        """Row length that lets decode_batch read every 64-bit window without copying."""
+        last = max((w.byte + 8 for w in self._windows), default=0)
+        return max(self.byte_size, last)
+
+    def reports_array(self, reports: list[bytes]) -> npt.NDArray[np.uint8]:
+        """Rows of `reports` (each at least byte_size long) in an array decode_batch reads as is."""
+        width = self.padded_length
+        buf = bytearray(width * len(reports))
+        for i, r in enumerate(reports):
+            chunk = r[:width]
+            buf[i * width : i * width + len(chunk)] = chunk
+        return np.frombuffer(bytes(buf), dtype=np.uint8).reshape(len(reports), width)
+
     def decode_batch(self, reports: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
         """Decode a (n, length) byte array of reports of this ID into an (n, elements) array.
 
         Rows shorter than the report must have been filtered out by the
-        caller; extra bytes per row are ignored. Elements wider than 57 bits
-        (vendor blobs, never pen coordinates) are decoded per row.
+        caller; extra bytes per row are ignored. An array at least
+        `padded_length` wide and C-contiguous (what `reports_array` builds)
+        is read in place; anything else is copied into one first. Elements
+        wider than 57 bits (vendor blobs, never pen coordinates) are decoded
+        per row.
         """
         n, length = reports.shape
         if length < self.byte_size:
             raise ValueError(
                 f"rows of {length} bytes, report {self.report_id} needs {self.byte_size}"
             )
-        padded_len = max(length, self.byte_size) + 8
-        buf = np.zeros((n, padded_len), dtype=np.uint8)
-        buf[:, :length] = reports
-        out = np.empty((n, len(self.elements)), dtype=np.int64)
+        need = self.padded_length
+        if length >= need and reports.flags.c_contiguous and reports.dtype == np.uint8:
+            buf, stride = reports, length
+        else:
+            stride = max(length, need)
+            buf = np.zeros((n, stride), dtype=np.uint8)
+            buf[:, :length] = reports
+        out = np.empty((n, len(self.elements)), dtype=np.int64, order="F")
+        if self._aligned:
+            rows = buf.view(np.uint8).reshape(n * stride).view(self._dtype(stride))
+            for i, _, _ in self._aligned:
+                out[:, i] = rows[f"e{i}"]
+        for i, byte, shift, mask in self._in_byte:
+            col = buf[:, byte]
+            out[:, i] = (col >> shift) & mask if shift else col & mask
         for w in self._windows:
-            words = np.ndarray(
-                (n,), dtype="<u8", buffer=buf.data, offset=w.byte, strides=(padded_len,)
-            )
-            out[:, w.columns] = ((words[:, None] >> w.shifts) & w.masks).astype(np.int64)
-        if self._signed_cols.size:
-            sub = out[:, self._signed_cols]
-            out[:, self._signed_cols] = (sub ^ self._sign_bits) - self._sign_bits
+            words = np.ndarray((n,), dtype="<u8", buffer=buf.data, offset=w.byte, strides=(stride,))
+            vals = ((words[:, None] >> w.shifts) & w.masks).view(np.int64)
+            if w.contiguous is not None:
+                out[:, w.contiguous[0] : w.contiguous[1]] = vals
+            else:
+                out[:, w.columns] = vals
+        for col, sign in self._window_signed:
+            out[:, col] = (out[:, col] ^ sign) - sign
         for i in self._wide:
             e = self.elements[i]
             mask = (1 << e.bit_size) - 1
