@@ -298,8 +298,8 @@ class ReportDecoder:
             for i, _, _ in self._aligned:
                 out[:, i] = rows[f"e{i}"]
         for i, byte, shift, mask in self._in_byte:
-            col = buf[:, byte]
-            out[:, i] = (col >> shift) & mask if shift else col & mask
+            column = buf[:, byte]
+            out[:, i] = (column >> shift) & mask if shift else column & mask
         for w in self._windows:
             words = np.ndarray((n,), dtype="<u8", buffer=buf.data, offset=w.byte, strides=(stride,))
             vals = ((words[:, None] >> w.shifts) & w.masks).view(np.int64)
