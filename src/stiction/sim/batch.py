@@ -597,10 +597,12 @@ def first_exit_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F) -> F:
     c = a0x * a0x + a0y * a0y - r2
     a = a1x * a1x + a1y * a1y
     b = 2.0 * (a0x * a1x + a0y * a1y)
+    tol = kernels.BOUNDARY * r2
     sq = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
-    tau = np.where(b <= 0.0, (-b + sq) / (2.0 * a), (2.0 * c) / (-b - sq))
+    inner = np.where(b <= 0.0, (-b + sq) / (2.0 * a), (2.0 * c) / (-b - sq))
+    tau = np.where(c >= -tol, -b / a, inner)
     tau = np.where((a == 0.0) | (tau > hmax) | np.isnan(tau), np.inf, np.maximum(tau, 0.0))
-    out: F = np.where(c > 0.0, 0.0, tau)
+    out: F = np.where((c > tol) | ((c > -tol) & (b > 0.0)), 0.0, tau)
     return out
 
 
@@ -608,11 +610,13 @@ def first_entry_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F) -> F:
     c = a0x * a0x + a0y * a0y - r2
     a = a1x * a1x + a1y * a1y
     b = 2.0 * (a0x * a1x + a0y * a1y)
+    tol = kernels.BOUNDARY * r2
     disc = b * b - 4.0 * a * c
     q = 0.5 * (-b + np.sqrt(np.maximum(disc, 0.0)))
     tau = c / q
-    bad = (a == 0.0) | (b >= 0.0) | (disc < 0.0) | (tau > hmax) | np.isnan(tau)
-    out: F = np.where(c <= 0.0, 0.0, np.where(bad, np.inf, tau))
+    bad = (a == 0.0) | (b >= 0.0) | (c <= tol) | (disc < 0.0) | (tau > hmax) | np.isnan(tau)
+    now = (c < -tol) | ((c <= tol) & (b < 0.0))
+    out: F = np.where(now, 0.0, np.where(bad, np.inf, tau))
     return out
 
 

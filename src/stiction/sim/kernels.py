@@ -38,20 +38,31 @@ def propagator(w: float, h: float) -> Coeffs:
     )
 
 
+BOUNDARY = 1e-12
+"""Relative band around a crossing radius counted as "on the boundary". There the
+direction of motion decides: a stretch exactly at F_s/k moving outward has just
+broken away, moving inward has just stuck. Without it, round-off at the crossing
+point can make both "break away" and "stick again" true at once."""
+
+
 def first_exit(
     a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float
 ) -> float | None:
-    """First tau in [0, hmax] where |a0 + a1 tau|^2 reaches r2 from inside, else None."""
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 passes r2 going out, else None."""
     c = a0x * a0x + a0y * a0y - r2
-    if c > 0.0:
+    b = 2.0 * (a0x * a1x + a0y * a1y)
+    tol = BOUNDARY * r2
+    if c > tol or (c > -tol and b > 0.0):
         return 0.0
     a = a1x * a1x + a1y * a1y
     if a == 0.0:
         return None
-    b = 2.0 * (a0x * a1x + a0y * a1y)
-    sq = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
-    # The non-negative root, in the form that does not cancel.
-    tau = (-b + sq) / (2.0 * a) if b <= 0.0 else (2.0 * c) / (-b - sq)
+    if c >= -tol:
+        tau = -b / a  # on the boundary moving in: out again through the other root
+    else:
+        sq = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
+        # The non-negative root, in the form that does not cancel.
+        tau = (-b + sq) / (2.0 * a) if b <= 0.0 else (2.0 * c) / (-b - sq)
     if tau > hmax:
         return None
     return max(tau, 0.0)
@@ -62,11 +73,12 @@ def first_entry(
 ) -> float | None:
     """First tau in [0, hmax] where |a0 + a1 tau|^2 falls to r2 or below, else None."""
     c = a0x * a0x + a0y * a0y - r2
-    if c <= 0.0:
+    b = 2.0 * (a0x * a1x + a0y * a1y)
+    tol = BOUNDARY * r2
+    if c < -tol or (c <= tol and b < 0.0):
         return 0.0
     a = a1x * a1x + a1y * a1y
-    b = 2.0 * (a0x * a1x + a0y * a1y)
-    if a == 0.0 or b >= 0.0:
+    if a == 0.0 or b >= 0.0 or c <= tol:
         return None
     disc = b * b - 4.0 * a * c
     if disc < 0.0:
