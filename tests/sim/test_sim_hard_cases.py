@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import pytest
@@ -63,7 +64,7 @@ def test_mu_s_below_mu_k_does_not_chatter(integrator: str) -> None:
     states = drive(sim, stroke, 0.0, 3.0)
     assert all(finite(s) for s in states)
     held = [s.phase for s in states if s.t > 1.5]
-    assert all(a == b or (a, b) == ("slip", "stick") for a, b in zip(held, held[1:], strict=False))
+    assert all(a == b or (a, b) == ("slip", "stick") for a, b in itertools.pairwise(held))
     assert held[-1] == held[-2]
 
 
@@ -261,5 +262,5 @@ def test_energy_never_increases_with_the_touch_held(integrator: str) -> None:
     sim = ContactSim(Params(mu_s=0.2), integrator)
     states = drive(sim, sampled(back_and_forth, 0.0, 0.8), 0.0, 2.0)
     held = [energy(sim, s) for s in states if s.t > 0.8 + 1e-9]
-    for e0, e1 in zip(held, held[1:], strict=False):
+    for e0, e1 in itertools.pairwise(held):
         assert e1 <= e0 * (1 + 1e-12) + 1e-30
