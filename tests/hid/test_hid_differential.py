@@ -189,3 +189,13 @@ def test_batch_decoding_equals_one_at_a_time(name: str) -> None:
         assert batch.shape == (len(rows), len(dec.elements))
         for i, r in enumerate(rows):
             assert tuple(int(v) for v in batch[i]) == dec.decode(r.ljust(width, b"\0"))
+
+
+def test_reports_array_handles_mixed_lengths() -> None:
+    rec, desc, _ = _load("ugee-m708-v2")
+    dec = ReportDecoder(desc.input_reports[7])
+    rows = [ev.data for ev in rec.events[:50]]
+    mixed = [r + b"\x00" * (i % 3) for i, r in enumerate(rows)]  # longer reports are valid
+    same = dec.decode_batch(dec.reports_array(rows))
+    assert (dec.decode_batch(dec.reports_array(mixed)) == same).all()
+    assert [tuple(int(v) for v in row) for row in same] == [dec.decode(r) for r in rows]

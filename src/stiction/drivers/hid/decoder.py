@@ -264,11 +264,21 @@ class ReportDecoder:
     def reports_array(self, reports: list[bytes]) -> npt.NDArray[np.uint8]:
         """Rows of `reports` (each at least byte_size long) in an array decode_batch reads as is."""
         width = self.padded_length
-        buf = bytearray(width * len(reports))
+        n = len(reports)
+        lengths = {len(r) for r in reports}
+        if len(lengths) == 1:
+            (length,) = lengths
+            raw = np.frombuffer(b"".join(reports), dtype=np.uint8).reshape(n, length)
+            if length >= width:
+                return raw
+            out = np.zeros((n, width), dtype=np.uint8)
+            out[:, :length] = raw
+            return out
+        buf = bytearray(width * n)
         for i, r in enumerate(reports):
             chunk = r[:width]
             buf[i * width : i * width + len(chunk)] = chunk
-        return np.frombuffer(bytes(buf), dtype=np.uint8).reshape(len(reports), width)
+        return np.frombuffer(bytes(buf), dtype=np.uint8).reshape(n, width)
 
     def decode_batch(self, reports: npt.NDArray[np.uint8]) -> npt.NDArray[np.int64]:
         """Decode a (n, length) byte array of reports of this ID into an (n, elements) array.
