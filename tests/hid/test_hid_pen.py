@@ -328,3 +328,13 @@ def test_bad_table_entries_are_refused(text: str, message: str) -> None:
 
 def test_report_type_enum_is_complete() -> None:
     assert {t.value for t in ReportType} == {"input", "output", "feature"}
+
+
+def test_table_size_overrides_a_wrong_descriptor(hid_data: Path) -> None:
+    rec = load_recording(hid_data / "veikk-s640.hid")
+    desc = parse_descriptor(rec.descriptor)
+    assert ReportStream(desc, rec.name).surface_size == pytest.approx((0.020828, 0.0279654))
+    fixed = ReportStream(desc, rec.name, None, lookup(rec.vid, rec.pid))
+    assert fixed.surface_size == pytest.approx((0.1524, 0.1016))
+    user = ReportStream(desc, rec.name, (0.15, 0.1), lookup(rec.vid, rec.pid))
+    assert user.surface_size == (0.15, 0.1)  # the user's size wins over the table's
