@@ -178,3 +178,96 @@ def test_missing_node_is_a_device_error(tmp_path: Path) -> None:
 
     with pytest.raises(DeviceError, match="no such input device"):
         open_device(str(tmp_path / "event99"))
+
+
+# -- unplug through umockdev's GI API (system python3 controls the testbed) ---------
+
+UNPLUG_READER = textwrap.dedent(
+    """
+    import json, sys
+    from stiction.drivers.evdev import discover, open_device
+    from stiction.errors import DeviceError
+    path = sys.argv[1]
+    src = open_device(path, grab=True)
+    print("ready", flush=True)
+    try:
+        for s in src.samples():
+            print(json.dumps([s.t, s.x, s.y, s.tip, s.in_range, s.contact]), flush=True)
+    except DeviceError as exc:
+        print(json.dumps({"error": str(exc), "stats": src.stats()}), flush=True)
+    src.close()
+    try:
+        open_device(path)
+    except DeviceError as exc:
+        print(json.dumps({"reopen_failed": str(exc)}), flush=True)
+    assert sys.stdin.readline() == "replugged\\n"
+    # what a daemon does: find the device again by what it is, not by its old node
+    (info,) = [d for d in discover() if d.name == src.description.name]
+    again = open_device(info.path, grab=True)
+    print(json.dumps({"reopened": again.name, "path": info.path}), flush=True)
+    again.close()
+    """
+)
+
+
+def _gi_available() -> bool:
+    import shutil
+    import subprocess
+
+    if not Path("/usr/bin/python3").exists() or shutil.which("umockdev-wrapper") is None:
+        return False
+    probe = "import gi; gi.require_version('UMockdev', '1.0'); from gi.repository import UMockdev"
+    r = subprocess.run(["/usr/bin/python3", "-c", probe], capture_output=True, check=False)
+    return r.returncode == 0
+
+
+@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
+    evdev_data: Path, tmp_path: Path
+) -> None:
+    import subprocess
+
+    name = "wacom-cintiq-13hd-touch-pen.evemu"
+    rec = load(evdev_data / name)
+    # the stream stops after 40 frames with the pen in range; then the device goes away
+    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
+    rec.events = rec.events[: syn[39] + 1]
+    write(rec, tmp_path, num=5, udev={"ID_INPUT_TABLET": "1"})
+    write(rec, tmp_path, num=6, udev={"ID_INPUT_TABLET": "1"})
+    controller = Path(__file__).with_name("evdev_unplug_controller.py")
+    proc = subprocess.run(
+        [
+            "umockdev-wrapper",
+            "/usr/bin/python3",
+            str(controller),
+            str(tmp_path),
+            stiction_cmd()[0],
+            UNPLUG_READER,
+            "40",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    lines = out["reader"]
+    assert lines[0] == "ready", out
+    samples = [json.loads(x) for x in lines if x.startswith("[")]
+    errors = [json.loads(x) for x in lines if x.startswith('{"error"')]
+    assert len(errors) == 1, out
+    assert "went away" in errors[0]["error"] and "No such device" in errors[0]["error"]
+    assert errors[0]["stats"]["unplugged"] == 1
+    # what was read before the unplug is the recording's beginning ...
+    want = [
+        [s.t, s.x, s.y, s.tip, s.in_range, s.contact] for s in replay(evdev_data / name).samples()
+    ]
+    live, end = samples[:-1], samples[-1]
+    assert len(live) == 40 and live == want[:40] and live[-1][4] is True
+    # ... and the pen's contact ended where it last was, out of range, at the last kernel time
+    assert end == [live[-1][0], live[-1][1], live[-1][2], False, False, 0]
+    reopen = [json.loads(x) for x in lines if x.startswith('{"reopen')]
+    assert "no such input device" in reopen[0]["reopen_failed"]
+    assert reopen[1] == {"reopened": "wacom-cintiq-13hd-touch-pen", "path": "/dev/input/event6"}
+    assert out["returncode"] == 0, out["stderr"]

@@ -1,0 +1,180 @@
+"""umockdev GI controller: a mocked evdev node that is unplugged and plugged back (test helper).
+
+Runs under the system python3 (the only one with `gi`), itself under
+umockdev-wrapper so that uevents reach the mocked udev. It answers the
+reader's ioctls from the generated .ioctl file, and after the unplug fails
+every read with ENODEV, as the kernel does for a vanished device
+(shared/design/umockdev-evdev.md section 6). The reader is stiction's own
+driver in a subprocess; this script only reports what it printed.
+
+usage: evdev_unplug_controller.py DIR READER_PYTHON READER_SCRIPT UNPLUG_AFTER
+prints one JSON object: {"reader": [lines...], "returncode": int}
+"""
+
+from __future__ import annotations
+
+import contextlib
+import errno
+import json
+import os
+import re
+import select
+import subprocess
+import sys
+import threading
+
+import gi
+
+gi.require_version("UMockdev", "1.0")
+from gi.repository import UMockdev  # noqa: E402
+
+_READ = 2
+
+
+def _ioc(direction: int, nr: int, size: int) -> int:
+    return (direction << 30) | (size << 16) | (ord("E") << 8) | nr
+
+
+_NR = {"EVIOCGVERSION": 0x01, "EVIOCGID": 0x02, "EVIOCGNAME": 0x06, "EVIOCGPROP": 0x09}
+_NR |= {"EVIOCGKEY": 0x18, "EVIOCGLED": 0x19, "EVIOCGBIT": 0x20, "EVIOCGABS": 0x40}
+_NR |= {"EVIOCGEFFECTS": 0x84}
+EVIOCGRAB = (1 << 30) | (4 << 16) | (ord("E") << 8) | 0x90
+_LINE = re.compile(r"^(\w+)(?:\((\d+)\))? (-?\d+) ([0-9a-fA-F]*)$")
+
+
+def load_table(path: str) -> dict[int, tuple[int, bytes]]:
+    table = {}
+    with open(path) as f:
+        text = f.read()
+    for line in text.splitlines():
+        m = _LINE.match(line.strip())
+        if not m:
+            continue
+        name, off, ret, data = m.group(1), int(m.group(2) or 0), int(m.group(3)), m.group(4)
+        buf = bytes.fromhex(data)
+        table[_ioc(_READ, _NR[name] + off, len(buf))] = (ret, buf)
+    return table
+
+
+class Handler(UMockdev.IoctlBase):
+    def __init__(self, table: dict[int, tuple[int, bytes]]) -> None:
+        super().__init__()
+        self.table = table
+        self.unplugged = threading.Event()
+
+    def do_handle_ioctl(self, client):  # type: ignore[no-untyped-def]
+        if self.unplugged.is_set():
+            client.complete(-1, errno.ENODEV)
+            return True
+        req = client.get_request()
+        if req == EVIOCGRAB:
+            client.complete(0, 0)
+            return True
+        hit = self.table.get(req)
+        if hit is None:
+            client.complete(-1, errno.EINVAL)  # e.g. EVIOCSCLOCKID
+            return True
+        ret, buf = hit
+        client.get_arg().resolve(0, len(buf)).update(0, buf)
+        client.complete(ret, 0)
+        return True
+
+    def do_handle_read(self, client):  # type: ignore[no-untyped-def]
+        if self.unplugged.is_set():
+            client.complete(-1, errno.ENODEV)
+            return True
+        return False
+
+
+def main() -> int:
+    d, reader_py, reader_script, unplug_after = sys.argv[1:5]
+    node = "/dev/input/event5"
+    sys_event = "/sys/devices/virtual/input/input5/event5"
+    sys_input = "/sys/devices/virtual/input/input5"
+    tb = UMockdev.Testbed.new()
+    tb.add_from_file(os.path.join(d, "event5.umockdev"))
+    handler = Handler(load_table(os.path.join(d, "event5.ioctl")))
+    tb.attach_ioctl(node, handler)
+    env = dict(os.environ, UMOCKDEV_DIR=tb.get_root_dir())
+    proc = subprocess.Popen(
+        [reader_py, "-c", reader_script, node],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+        text=True,
+    )
+    lines: list[str] = []
+    pending: list[str] = []
+    buf = b""
+    out_fd = proc.stdout.fileno()  # type: ignore[union-attr]
+
+    def next_line(timeout: float = 20.0) -> str:
+        # Raw reads: a buffered readline() could swallow several lines at once and
+        # leave select() waiting for data that has already arrived.
+        nonlocal buf
+        while not pending:
+            ready, _, _ = select.select([out_fd], [], [], timeout)
+            if not ready:
+                raise TimeoutError(f"reader silent; so far {lines}")
+            chunk = os.read(out_fd, 65536)
+            if not chunk:
+                raise TimeoutError(f"reader exited; so far {lines}")
+            buf += chunk
+            *done, buf = buf.split(b"\n")
+            pending.extend(x.decode() for x in done)
+        line = pending.pop(0)
+        lines.append(line)
+        return line
+
+    try:
+        assert next_line() == "ready", lines
+        tb.load_evemu_events(node, os.path.join(d, "event5.events"))
+        samples = 0
+        while samples < int(unplug_after):
+            if next_line().startswith("["):
+                samples += 1
+        # every event has been read, so the evemu runner wrote its last one: the pty
+        # can be hung up without it writing into a closed fd
+        handler.unplugged.set()
+        tb.uevent(sys_event, "remove")
+        tb.remove_device(sys_event)
+        tb.remove_device(sys_input)
+        os.close(tb.get_dev_fd(node))  # hang up the pty so a blocked select() wakes
+        while not next_line().startswith('{"error"'):
+            pass
+        assert next_line().startswith('{"reopen_failed"'), lines
+        # Plug it back. A replugged device usually gets a new event number from the
+        # kernel, and umockdev 0.17 cannot re-create a removed node name in one
+        # testbed anyway, so it returns as event6 (files written by the test).
+        replug = "/dev/input/event6"
+        # umockdev 0.17 also leaves dev/.ptymap/_dev_pts_N behind; the new node gets
+        # the freed pty number and would abort on the stale link.
+        ptymap = os.path.join(tb.get_root_dir(), "dev", ".ptymap")
+        for entry in os.listdir(ptymap) if os.path.isdir(ptymap) else ():
+            os.unlink(os.path.join(ptymap, entry))
+        tb.attach_ioctl(replug, Handler(load_table(os.path.join(d, "event6.ioctl"))))
+        tb.add_from_file(os.path.join(d, "event6.umockdev"))
+        proc.stdin.write("replugged\n")  # type: ignore[union-attr]
+        proc.stdin.flush()  # type: ignore[union-attr]
+        next_line()
+    except (TimeoutError, AssertionError) as exc:
+        lines.append(f"controller: {exc}")
+    finally:
+        with contextlib.suppress(OSError):
+            proc.stdin.close()  # type: ignore[union-attr]
+        proc.stdin = None
+        try:
+            out, err = proc.communicate(timeout=20)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+        lines.extend(pending)
+        lines.extend(x for x in (buf.decode() + out).splitlines() if x)
+        print(json.dumps({"reader": lines, "stderr": err, "returncode": proc.returncode}))
+        del tb
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
