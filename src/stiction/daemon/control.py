@@ -29,7 +29,11 @@ class ControlServer:
         self.sock = ctx.socket(zmq.REP)
         self.sock.linger = 0
         self.sock.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
-        guard.bind(self.sock, endpoint, "control")
+        try:
+            guard.bind(self.sock, endpoint, "control")
+        except BaseException:
+            self.sock.close(linger=0)
+            raise
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
         self.daemon = daemon
         self.poller = zmq.Poller()

@@ -21,7 +21,11 @@ class Publisher:
         self.sock = ctx.socket(zmq.PUB)
         self.sock.sndhwm = hwm
         self.sock.linger = 0
-        guard.bind(self.sock, endpoint, "pub")
+        try:
+            guard.bind(self.sock, endpoint, "pub")
+        except BaseException:
+            self.sock.close(linger=0)  # a leaked socket would block the context's term()
+            raise
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
         self.sent = 0
         self.dropped = 0

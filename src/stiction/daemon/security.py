@@ -117,7 +117,7 @@ class Guard:
             raise SecurityError(f"authorized_keys {keys_dir} is not a directory")
         auth = ThreadAuthenticator(self.ctx, log=logging.getLogger("stiction.daemon.zap"))
         auth.start()
-        auth.configure_curve(domain="*", location=str(keys_dir))
+        auth.configure_curve(domain=ZAP_DOMAIN, location=str(keys_dir))
         self._auth = auth
         n = len(list(keys_dir.glob("*.key")))
         log.info("curve enabled authorized_keys=%s clients=%d", keys_dir, n)
@@ -125,7 +125,7 @@ class Guard:
     def reload_keys(self) -> None:
         """Re-read the authorised keys (SIGHUP): added or removed clients take effect."""
         if self._auth is not None and self.curve.authorized_keys is not None:
-            self._auth.configure_curve(domain="*", location=str(self.curve.authorized_keys))
+            self._auth.configure_curve(domain=ZAP_DOMAIN, location=str(self.curve.authorized_keys))
 
     def close(self) -> None:
         if self._auth is not None:

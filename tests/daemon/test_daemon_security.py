@@ -1,0 +1,119 @@
+"""CURVE with real sockets on 127.0.0.1: authorised peers only, never a clear-text bind."""
+
+from __future__ import annotations
+
+import threading
+from pathlib import Path
+from typing import Any
+
+import msgpack
+import pytest
+import zmq
+import zmq.auth
+
+from conftest import ListSource, Runner, make_daemon, stroke
+from stiction import protocol
+from stiction.daemon.security import CurveConfig, SecurityError, is_local_endpoint
+
+
+@pytest.mark.parametrize(
+    ("endpoint", "local"),
+    [
+        ("ipc:///tmp/x", True),
+        ("inproc://x", True),
+        ("tcp://127.0.0.1:5556", True),
+        ("tcp://127.9.9.9:1", True),
+        ("tcp://[::1]:5556", True),
+        ("tcp://localhost:5556", True),
+        ("tcp://0.0.0.0:5556", False),
+        ("tcp://*:5556", False),
+        ("tcp://192.168.1.5:5556", False),
+        ("tcp://eth0:5556", False),
+        ("udp://127.0.0.1:1", False),
+    ],
+)
+def test_loopback_detection(endpoint: str, local: bool) -> None:
+    assert is_local_endpoint(endpoint) is local
+
+
+@pytest.mark.parametrize("pub", ["tcp://0.0.0.0:*", "tcp://*:*"])
+def test_network_bind_without_keys_is_refused(pub: str, tmp_path: Path) -> None:
+    with pytest.raises(SecurityError, match="needs CURVE keys"):
+        make_daemon((pub, f"ipc://{tmp_path}/c"), {"pen": ListSource(stroke())})
+
+
+@pytest.fixture
+def keys(tmp_path: Path) -> dict[str, Path]:
+    auth = tmp_path / "authorized"
+    auth.mkdir()
+    (tmp_path / "private").mkdir()
+    out = {}
+    for name in ("server", "client", "intruder"):
+        public, secret = zmq.auth.create_certificates(str(tmp_path / "private"), name)
+        out[name] = Path(secret)
+        out[name + ".pub"] = Path(public)
+    # Only the client's public key is authorised.
+    (auth / "client.key").write_bytes(out["client.pub"].read_bytes())
+    out["authorized"] = auth
+    return out
+
+
+def _client(ctx: zmq.Context[Any], kind: int, keys: dict[str, Path], who: str | None) -> Any:
+    s = ctx.socket(kind)
+    s.linger = 0
+    if who is not None:
+        public, secret = zmq.auth.load_certificate(str(keys[who]))
+        s.curve_publickey = public
+        s.curve_secretkey = secret
+        s.curve_serverkey = zmq.auth.load_certificate(str(keys["server.pub"]))[0]
+    return s
+
+
+def test_only_authorised_peers_are_accepted(keys: dict[str, Path]) -> None:
+    gate = threading.Event()
+    curve = CurveConfig(keys["server"], keys["authorized"], required=True)
+    d = make_daemon(
+        ("tcp://127.0.0.1:*", "tcp://127.0.0.1:*"),
+        {"pen": ListSource(stroke(n=20), gate=gate)},
+        curve=curve,
+    )
+    assert d.publisher is not None and d.control is not None
+    pub, ctl = d.publisher.endpoint, d.control.endpoint
+    ctx = zmq.Context()
+    subs = {
+        who: _client(ctx, zmq.SUB, keys, None if who == "plain" else who)
+        for who in ("client", "intruder", "plain")
+    }
+    for s in subs.values():
+        s.setsockopt(zmq.SUBSCRIBE, b"")
+        s.connect(pub)
+    try:
+        with Runner(d):
+            got = 0
+            while got < 20:
+                assert subs["client"].poll(5000), "the authorised client got nothing"
+                _, payload = subs["client"].recv_multipart()
+                got += msgpack.unpackb(payload)["kind"] == "frame"
+            # 20 frames reached the client; the others have had the same chance.
+            assert subs["intruder"].poll(300) == 0
+            assert subs["plain"].poll(0) == 0
+
+            req = _client(ctx, zmq.REQ, keys, "client")
+            req.connect(ctl)
+            req.send(protocol.make_request("ping"))
+            assert req.poll(5000) and msgpack.unpackb(req.recv())["ok"]
+            bad = _client(ctx, zmq.REQ, keys, "intruder")
+            bad.connect(ctl)
+            bad.send(protocol.make_request("set_params", mu_s=0.0))
+            assert bad.poll(300) == 0  # never read, never answered
+            req.send(protocol.make_request("stats"))
+            assert req.poll(5000)
+            stats = msgpack.unpackb(req.recv())["stats"]
+            assert stats["control_requests"] == 2  # the intruder's request never arrived
+            req.close()
+            bad.close()
+            gate.set()
+    finally:
+        for s in subs.values():
+            s.close()
+        ctx.term()
