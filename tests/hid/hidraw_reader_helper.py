@@ -1,11 +1,13 @@
 """Runs inside umockdev-run: the production hidraw backend reads a mocked node.
 
-Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error]
+Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error] [--huion-usb]
 Prints one JSON line per PenSample, then a final {"stats": ...} line.
 Stops once the backend has fed N_REPORTS reports (waiting on the source's
 counters with a short timeout per check, never a fixed sleep), or when the
 device errors. With --until-error it prints {"reached": N} at that point and
-keeps reading until the device fails (the unplug test).
+keeps reading until the device fails (the unplug test). With --huion-usb
+the USB side of the Huion initialisation is the pyusb backend object of
+fake_huion_usb.py (umockdev mocks hidraw here, not usbdevfs).
 """
 
 from __future__ import annotations
@@ -24,7 +26,12 @@ def main() -> int:
     if "--discover" in sys.argv:
         for info in discover():
             print(json.dumps({"discover": asdict(info)}), flush=True)
-    src = open_hidraw(device)
+    backend = None
+    if "--huion-usb" in sys.argv:
+        from fake_huion_usb import V2, HuionUsbBackend
+
+        backend = HuionUsbBackend({200: V2})
+    src = open_hidraw(device, usb_backend=backend)
     print(json.dumps({"kind": src.kind, "size": src.surface_size, "name": src.name}), flush=True)
     out: list[str] = []
     failure: list[str] = []

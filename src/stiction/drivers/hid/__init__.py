@@ -12,7 +12,7 @@ Heavy imports (hidapi, pyusb, numpy) happen inside the functions that need them.
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from stiction.drivers.hid.report_source import ReportSource
@@ -33,11 +33,16 @@ def replay(
 def open_hidraw(
     path_or_vidpid: str,
     size_m: tuple[float, float] | None = None,
+    usb_backend: Any = None,
 ) -> ReportSource:
-    """Open a /dev/hidrawN node, or the first digitizer interface of a vid:pid."""
+    """Open a /dev/hidrawN node, or the first digitizer interface of a vid:pid.
+
+    `size_m` overrides the active area (metres); `usb_backend` is a pyusb
+    backend object for vendor initialisation over USB (None: libusb).
+    """
     from stiction.drivers.hid.hidraw_backend import open_hidraw as _open
 
-    return _open(path_or_vidpid, size_m=size_m)
+    return _open(path_or_vidpid, size_m=size_m, usb_backend=usb_backend)
 
 
 def discover() -> list[DeviceInfo]:

@@ -18,7 +18,8 @@ import os
 import re
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -98,16 +99,32 @@ def _descriptor(dev: Any, path: bytes) -> bytes:
         ) from None
 
 
-def _vendor_init(dev: Any, entry: DeviceEntry | None) -> tuple[float, float] | None:
-    """Run the table's initialisation; returns a size learned from the device, if any."""
+@dataclass(frozen=True, slots=True)
+class _Init:
+    """What a vendor initialisation changed: a size learned, a new descriptor, a fix-up."""
+
+    size_m: tuple[float, float] | None = None
+    descriptor: bytes | None = None
+    fixup: Callable[[bytes], bytes | None] | None = None
+    proximity_timeout: float | None = None
+
+
+def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init:
+    """Run the table's initialisation for this device."""
     if entry is None or entry.init is None:
-        return None
+        return _Init()
     if entry.init == "huion-string-descriptor":
+        from stiction.drivers.hid import uclogic
         from stiction.drivers.hid.usb_init import huion_init
 
-        params = huion_init(entry.vid, entry.pid)
+        params = huion_init(entry.vid, entry.pid, backend=usb_backend)
         log.info("%s: Huion parameters %s", entry.name, params)
-        return params.size_m
+        return _Init(
+            params.size_m,
+            uclogic.pen_descriptor(params),
+            uclogic.fixup(params),
+            uclogic.PROXIMITY_TIMEOUT_S if params.index == 200 else None,
+        )
     kind, _, hexdata = entry.init.partition(":")
     data = bytes.fromhex(hexdata)
     try:
@@ -119,7 +136,7 @@ def _vendor_init(dev: Any, entry: DeviceEntry | None) -> tuple[float, float] | N
         raise DeviceError(
             f"{entry.name}: vendor initialisation ({entry.init}) failed: {exc}"
         ) from None
-    return None
+    return _Init()
 
 
 class HidrawReader:
@@ -153,7 +170,7 @@ class HidrawReader:
         if not reading:
             self._close_handle()
 
-    def __iter__(self) -> Iterator[tuple[float, bytes]]:
+    def __iter__(self) -> Iterator[tuple[float, bytes | None]]:
         with self._lock:
             if self._handle_closed:
                 return
@@ -167,25 +184,34 @@ class HidrawReader:
                     raise DeviceError(
                         f"{self.label}: device read failed ({exc}): unplugged?"
                     ) from None
-                if data:
-                    yield time.monotonic(), bytes(data)
+                yield time.monotonic(), bytes(data) if data else None
         finally:
             with self._lock:
                 self._reading = False
             self._close_handle()
 
 
-def open_hidraw(path_or_vidpid: str, size_m: tuple[float, float] | None = None) -> ReportSource:
-    """Open a hidraw node (path) or the first pen/touch interface of a vid:pid."""
+def open_hidraw(
+    path_or_vidpid: str,
+    size_m: tuple[float, float] | None = None,
+    usb_backend: Any = None,
+) -> ReportSource:
+    """Open a hidraw node (path) or the first pen/touch interface of a vid:pid.
+
+    `usb_backend` is the pyusb backend object used for vendor
+    initialisation over USB (None: libusb).
+    """
     path, vid, pid, product = _resolve(path_or_vidpid)
     dev = _open_handle(path)
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
         entry = lookup(vid, pid)
         raw = entry.descriptor if entry and entry.descriptor else _descriptor(dev, path)
-        desc = parse_descriptor(raw)
-        learned = _vendor_init(dev, entry)
-        stream = ReportStream(desc, label, size_m or learned, entry)
+        init = _vendor_init(dev, entry, usb_backend)
+        desc = parse_descriptor(init.descriptor or raw)
+        stream = ReportStream(
+            desc, label, size_m or init.size_m, entry, init.fixup, init.proximity_timeout
+        )
         max_len = max((r.byte_size for r in desc.input_reports.values()), default=64)
         reader = HidrawReader(dev, label, min(max_len, MAX_REPORT))
     except BaseException:

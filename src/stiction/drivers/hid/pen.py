@@ -12,7 +12,7 @@ because coordinates that are not metres would silently break the physics.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, ReportDescriptor
@@ -264,6 +264,7 @@ class ContactTracker:
 
     def __init__(self, stats: Counter[str] | None = None) -> None:
         self.active: dict[int, bool] = {}
+        self.last: dict[int, PenSample] = {}
         self.remaining = 0
         self.stats: Counter[str] = stats if stats is not None else Counter()
 
@@ -325,7 +326,7 @@ class ContactTracker:
             buttons |= 1
         if SECONDARY_BARREL in el and v[el[SECONDARY_BARREL]]:
             buttons |= 2
-        return PenSample(
+        sample = PenSample(
             t=t,
             x=x,
             y=y,
@@ -338,3 +339,15 @@ class ContactTracker:
             tilt_y=v[el[Y_TILT]] * c.tilt_y_deg if Y_TILT in el else None,
             buttons=buttons,
         )
+        self.last[contact] = sample
+        return sample
+
+    def leave_all(self, t: float) -> list[PenSample]:
+        """End every active contact at its last position (the tool stopped reporting)."""
+        out = []
+        for contact, active in self.active.items():
+            last = self.last.get(contact)
+            if active and last is not None:
+                out.append(replace(last, t=t, tip=False, in_range=False, pressure=None))
+                self.active[contact] = False
+        return out

@@ -17,6 +17,9 @@ from stiction.drivers.sample import PenSample
 class ReportSource:
     """Decodes `reports` (an iterable of (t, bytes)) through `stream`.
 
+    A backend yields (t, None) when a read timed out with nothing to read,
+    so the stream can notice a tablet that went silent (`ReportStream.idle`).
+
     With `realtime`, samples are released at their recorded spacing from the
     moment `samples()` starts (the replay speed of hid-recorder's files);
     otherwise as fast as the consumer takes them. `on_close` releases the
@@ -27,7 +30,7 @@ class ReportSource:
         self,
         name: str,
         stream: ReportStream,
-        reports: Iterable[tuple[float, bytes]],
+        reports: Iterable[tuple[float, bytes | None]],
         realtime: bool = False,
         on_close: Callable[[], None] | None = None,
     ) -> None:
@@ -69,7 +72,10 @@ class ReportSource:
                 delay = start_wall + (t - start_t) - now
                 if delay > 0 and self._closed.wait(delay):
                     return
-            yield from feed(t, data)
+            if data is None:
+                yield from self.stream.idle(t)
+            else:
+                yield from feed(t, data)
 
     def close(self) -> None:
         with self._close_lock:

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import logging
 from collections import Counter
+from collections.abc import Callable
 
 from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
@@ -36,9 +37,20 @@ class ReportStream:
         device: str,
         size_m: tuple[float, float] | None = None,
         entry: DeviceEntry | None = None,
+        fixup: Callable[[bytes], bytes | None] | None = None,
+        proximity_timeout: float | None = None,
     ) -> None:
-        """`size_m` (the user's) wins over the device table's size, which wins over none."""
+        """`size_m` (the user's) wins over the device table's size, which wins over none.
+
+        `fixup` rewrites each raw report before decoding (vendor formats the
+        descriptor cannot express); returning None drops the report as ignored.
+        `proximity_timeout`: for tablets that report no in-range state, the
+        pen counts as gone this many seconds after its last report (see `idle`).
+        """
         self.desc = desc
+        self.fixup = fixup
+        self.proximity_timeout = proximity_timeout
+        self._last_report_t: float | None = None
         self.device = device
         pen_reports = entry.pen_reports if entry else frozenset()
         aliases = entry.usage_aliases if entry else None
@@ -64,6 +76,13 @@ class ReportStream:
 
     def feed(self, t: float, data: bytes) -> list[PenSample]:
         self.stats["reports"] += 1
+        self._last_report_t = t
+        if self.fixup is not None and data:
+            fixed = self.fixup(data)
+            if fixed is None:
+                self.stats["ignored"] += 1
+                return []
+            data = fixed
         if not data:
             return self._bad("empty_reports", "empty report")
         rid = data[0] if self.numbered else 0
@@ -83,5 +102,22 @@ class ReportStream:
             samples = self.tracker.samples(t, m, values)
         except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover - defensive
             return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
+        self.stats["samples"] += len(samples)
+        return samples
+
+    def idle(self, t: float) -> list[PenSample]:
+        """No report arrived up to time `t`: end contacts of a tablet without in-range bit.
+
+        Such a tablet simply stops sending when the pen is lifted away; the
+        kernel's hid-uclogic ends the contact 100 ms after the last report,
+        and so does this, so the pen does not hover forever.
+        """
+        if (
+            self.proximity_timeout is None
+            or self._last_report_t is None
+            or t - self._last_report_t < self.proximity_timeout
+        ):
+            return []
+        samples = self.tracker.leave_all(t)
         self.stats["samples"] += len(samples)
         return samples

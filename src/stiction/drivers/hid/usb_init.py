@@ -9,11 +9,12 @@ Layout, after Linux drivers/hid/hid-uclogic-params.c (GPL-2.0; facts only):
 - index 100 ("v1", >= 12 bytes of descriptor): max X le16 at byte 2, max Y le16
   at 4, max pressure le16 at 8, resolution (lines per inch) le16 at 10;
 - index 200 ("v2", >= 18 bytes): max X le24 at 2, max Y le24 at 5, max
-  pressure le16 at 8, resolution le16 at 10.
+  pressure le16 at 8, resolution le16 at 10;
+- an answer that is only UTF-16 text (some tablets return their model name
+  for any unknown index) is not parameters.
 
 Byte offsets count the descriptor header (bLength, bDescriptorType).
-The v1 layout was checked against the kernel source; the v2 offsets follow
-the same source but have not been checked against a device here.
+Both layouts were checked against the kernel source, not against a device.
 """
 
 from __future__ import annotations
@@ -61,6 +62,9 @@ def parse_huion_params(raw: bytes, index: int) -> HuionParams:
     else:
         max_x = int.from_bytes(raw[2:4], "little")
         max_y = int.from_bytes(raw[4:6], "little")
+    if all(0x20 <= raw[i] < 0x7F and raw[i + 1] == 0 for i in range(2, need - 1, 2)):
+        # Some tablets answer every unknown string index with their model name.
+        raise DeviceError(f"Huion string descriptor {index} is text, not parameters")
     max_p = int.from_bytes(raw[8:10], "little")
     res = int.from_bytes(raw[10:12], "little")
     if max_x <= 0 or max_y <= 0 or res <= 0:
@@ -110,11 +114,17 @@ def huion_init(vid: int, pid: int, backend: Any = None) -> HuionParams:
             f"USB device {vid:04x}:{pid:04x} not found for the Huion initialisation "
             "(is it plugged in, and does the udev rule give you access to /dev/bus/usb?)"
         )
+    problems = []
     for index in (200, 100):
         raw = _read_string_descriptor(dev, index)
-        if raw is not None:
+        if raw is None:
+            problems.append(f"no string {index}")
+            continue
+        try:
             return parse_huion_params(raw, index)
+        except DeviceError as exc:
+            problems.append(str(exc))
     raise DeviceError(
-        f"{vid:04x}:{pid:04x} answers neither string descriptor 200 nor 100: "
-        "not a Huion/UC-Logic tablet that can be initialised"
+        f"{vid:04x}:{pid:04x} answers neither string descriptor 200 nor 100 with "
+        f"parameters ({'; '.join(problems)}): not a Huion/UC-Logic tablet that can be initialised"
     )
