@@ -1,0 +1,48 @@
+"""Writing one installed file, or saying exactly what would be written.
+
+Shared by `stiction udev install` and `stiction service install` so both
+behave the same: --dry-run changes nothing, an identical file is left alone,
+and a file that cannot be written is a one-line StictionError naming it.
+"""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from stiction.errors import StictionError
+
+
+@dataclass(frozen=True, slots=True)
+class Outcome:
+    path: Path
+    action: str  # "written", "unchanged" or "would write"
+
+
+def install_text(path: Path, text: str, dry_run: bool, mode: int = 0o644) -> Outcome:
+    """Write `text` to `path` atomically (temp file + rename) unless it is already there."""
+    try:
+        current = path.read_text(encoding="utf-8")
+    except (FileNotFoundError, NotADirectoryError):
+        current = None
+    except OSError as exc:
+        raise StictionError(f"cannot read {path}: {exc.strerror or exc}") from None
+    if current == text:
+        return Outcome(path, "unchanged")
+    if dry_run:
+        return Outcome(path, "would write")
+    tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        tmp.write_text(text, encoding="utf-8")
+        tmp.chmod(mode)
+        tmp.replace(path)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        raise StictionError(f"cannot write {path}: {exc.strerror or exc}") from None
+    return Outcome(path, "written")
+
+
+def is_root() -> bool:
+    return os.geteuid() == 0
