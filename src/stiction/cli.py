@@ -30,6 +30,7 @@ COMMAND_MODULES = (
     "stiction.daemon.cli",
     "stiction.clients.cli",
     "stiction.demo",
+    "stiction.setup.cli",
 )
 
 
