@@ -216,10 +216,9 @@ class BatchSim:
         stick = ~from_stick & (sx * sx + sy * sy <= s[FS2])
         nx = self._k * sx + self._c * s[UDX]
         ny = self._k * sy + self._c * s[UDY]
-        n2 = nx * nx + ny * ny
-        move = ~stick & (n2 > s[FK] * s[FK])
+        nn = np.hypot(nx, ny)
+        move = ~stick & (nn > s[FK]) & (nn > 0.0)
         with np.errstate(invalid="ignore", divide="ignore"):
-            nn = np.sqrt(n2)
             s[DX] = np.where(move, nx / nn, s[DX])
             s[DY] = np.where(move, ny / nn, s[DY])
         md[:] = np.where(stick, STICK, np.where(move, MOVING, RESTING))
@@ -314,7 +313,7 @@ class BatchSim:
         if mv.any():
             nx = k * (s[UX] - s[PX]) + c * s[UDX]
             ny = k * (s[UY] - s[PY]) + c * s[UDY]
-            nn = np.sqrt(nx * nx + ny * ny)
+            nn = np.hypot(nx, ny)
             ok = mv & (nn > 0.0)
             s[DX] = np.where(ok, nx / nn, s[DX])
             s[DY] = np.where(ok, ny / nn, s[DY])
@@ -375,8 +374,8 @@ class BatchSim:
         vx, vy = s[VX], s[VY]
         udx, udy = s[UDX], s[UDY]
         sp2 = vx * vx + vy * vy
-        has_v = sp2 > 0.0
-        sp = np.sqrt(sp2)
+        sp = np.hypot(vx, vy)
+        has_v = sp > 0.0
         d0x = np.where(has_v, vx / sp, s[DX])
         d0y = np.where(has_v, vy / sp, s[DY])
         q = s[FK] / self._k
@@ -384,10 +383,10 @@ class BatchSim:
         ey = s[PY] - s[UY]
         ydx = vx - udx
         ydy = vy - udy
-        vmx = udx + m21 * (ex + q * d0x) + m22 * ydx
-        vmy = udy + m21 * (ey + q * d0y) + m22 * ydy
-        fwd = vmx * d0x + vmy * d0y > 0.0
-        nm = np.sqrt(vmx * vmx + vmy * vmy)
+        vmx = udx + m21 * ex + m22 * ydx  # implicit mid-step direction (see contact.py)
+        vmy = udy + m21 * ey + m22 * ydy
+        nm = np.hypot(vmx, vmy)
+        fwd = (vmx * d0x + vmy * d0y > 0.0) & (nm > 0.0)
         dx = np.where(fwd, vmx / nm, d0x)
         dy = np.where(fwd, vmy / nm, d0y)
         y0x = ex + q * dx
@@ -439,8 +438,8 @@ class BatchSim:
         k, c, m = self._k, self._c, self._m
         vx, vy = s[VX], s[VY]
         sp2 = vx * vx + vy * vy
-        has_v = sp2 > 0.0
-        sp = np.sqrt(sp2)
+        sp = np.hypot(vx, vy)
+        has_v = sp > 0.0
         dx = np.where(has_v, vx / sp, s[DX])
         dy = np.where(has_v, vy / sp, s[DY])
         fk = s[FK]
@@ -474,7 +473,7 @@ class BatchSim:
         uy = s[UY] + s[UDY] * h
         rx = m * vx + h * k * (ux - s[PX]) + h * c * s[UDX]
         ry = m * vy + h * k * (uy - s[PY]) + h * c * s[UDY]
-        r = np.sqrt(rx * rx + ry * ry)
+        r = np.hypot(rx, ry)
         hf = h * s[FK]
         held = r <= hf
         sc = np.where(held, 0.0, (r - hf) / ((m + h * c + h * h * k) * r))
