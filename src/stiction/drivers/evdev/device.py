@@ -31,10 +31,9 @@ from collections.abc import Iterator
 from typing import Any
 
 from evdev import ecodes
-
 from stiction.drivers.evdev import sizes
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
-from stiction.drivers.evdev.frames import SYN_REPORT, DeviceState, Frame, FrameAssembler
+from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
 from stiction.drivers.evdev.source import frame_samples, kind_of, slug
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
@@ -208,6 +207,7 @@ class DeviceSource:
                 return
             self._reading = True
         asm = FrameAssembler(self.description)
+        asm.query_state = self._query_state  # SYN_DROPPED: re-read, report as a frame
         self._assembler = asm
         dev = self._dev
         fd = dev.fd
@@ -218,25 +218,20 @@ class DeviceSource:
                 if self._wake_r in ready:
                     return
                 try:
-                    events = list(dev.read())
+                    batch = [(e.sec, e.usec, e.type, e.code, e.value) for e in dev.read()]
                 except BlockingIOError:
                     continue
                 except OSError as exc:
                     if exc.errno in (errno.ENODEV, errno.EIO, errno.EBADF):
                         yield from self._unplugged(asm, last, exc.strerror or str(exc))
                     raise DeviceError(f"{self.path}: read failed: {exc.strerror or exc}") from None
-                if not events:
+                if not batch:
                     # select said readable and read() got 0 bytes: end of file, the node
                     # was hung up (a real unplug gives ENODEV; umockdev gives EOF).
                     yield from self._unplugged(asm, last, "end of file")
-                for ev in events:
-                    self._stats["events"] += 1
-                    last = (ev.sec, ev.usec)
-                    frame = asm.feed(ev.sec, ev.usec, ev.type, ev.code, ev.value)
-                    if frame is not None:
-                        yield frame
-                    elif ev.type == EV_SYN and ev.code == SYN_REPORT and asm.needs_resync:
-                        yield asm.resync(self._query_state(), ev.sec, ev.usec)
+                self._stats["events"] += len(batch)
+                last = batch[-1][:2]
+                yield from asm.feed_many(batch)
         finally:
             with self._lock:
                 self._reading = False

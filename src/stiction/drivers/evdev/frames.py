@@ -22,7 +22,9 @@ of types and codes the device does not have.
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass, field, replace
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from typing import NamedTuple
 
 from evdev import ecodes
 from stiction.drivers.evdev.description import (
@@ -44,6 +46,12 @@ ABS_MT_PRESSURE = ecodes.ABS_MT_PRESSURE
 ABS_MT_DISTANCE = ecodes.ABS_MT_DISTANCE
 ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
+ABS_X = ecodes.ABS_X
+ABS_Y = ecodes.ABS_Y
+ABS_PRESSURE = ecodes.ABS_PRESSURE
+ABS_TILT_X = ecodes.ABS_TILT_X
+ABS_TILT_Y = ecodes.ABS_TILT_Y
+BTN_TOUCH = ecodes.BTN_TOUCH
 
 #: which tool wins when several BTN_TOOL_* are down (a Wacom tool swap reports
 #: the new tool before releasing the old one inside one frame).
@@ -69,9 +77,12 @@ BUTTON_BITS: dict[int, int] = {
 }
 
 
-@dataclass(frozen=True, slots=True)
-class Contact:
-    """One contact in device units, as the frame left it."""
+class Contact(NamedTuple):
+    """One contact in device units, as the frame left it.
+
+    NamedTuples, not frozen dataclasses: a frame builds them on the hot path,
+    and a frozen dataclass pays an object.__setattr__ per field.
+    """
 
     id: int  # tracking id (multi-touch) or 0 (the single tool)
     slot: int | None
@@ -87,8 +98,7 @@ class Contact:
     buttons: int = 0
 
 
-@dataclass(frozen=True, slots=True)
-class Frame:
+class Frame(NamedTuple):
     """The device state at one SYN_REPORT."""
 
     sec: int
@@ -138,6 +148,9 @@ class FrameAssembler:
         self._dropping = False
         #: True after SYN_DROPPED until resync() (live devices) or the next frame
         self.needs_resync = False
+        #: a live device's state query; when set, the SYN_REPORT that ends a dropped
+        #: stretch yields the re-read state as a frame (recordings have none)
+        self.query_state: Callable[[], DeviceState] | None = None
         self._keys: set[int] = set()
         self._abs: dict[int, int] = {code: a.value for code, a in desc.axes.items()}
         self._ranges = {code: (a.minimum, a.maximum) for code, a in desc.axes.items()}
@@ -154,6 +167,10 @@ class FrameAssembler:
         self._pressure_min = desc.axes[ecodes.ABS_PRESSURE].minimum if self._has_pressure else 0
         self._seen_position = False
         self._published: dict[int, Contact] = {}
+        self._dirty: set[int] = set()  # slots changed since the last frame
+        self._dirty_all = True  # keys changed / single-touch state changed / resync
+        self._button_state = 0
+        self._keys_changed = False
         self._default_tool = Tool.PEN if desc.kind == "pen" else Tool.FINGER
 
     # -- input ---------------------------------------------------------------
@@ -166,13 +183,42 @@ class FrameAssembler:
             else:
                 self._pending.append((ev_type, code, value))
             return None
+        return self._syn(sec, usec, code)
+
+    def feed_many(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+        """Consume a batch (a read() worth, or a whole recording); the frames it completes.
+
+        The same as feed() per event, with the per-event work inlined: this is
+        the path of the live reader and of replay.
+        """
+        out: list[Frame] = []
+        append = self._pending.append
+        for sec, usec, ev_type, code, value in events:
+            if ev_type:  # not EV_SYN
+                if self._dropping:
+                    self.stats["events_discarded"] += 1
+                else:
+                    append((ev_type, code, value))
+            else:
+                f = self._syn(sec, usec, code)
+                if f is not None:
+                    out.append(f)
+        return out
+
+    def feed_all(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+        return self.feed_many(events)
+
+    def _syn(self, sec: int, usec: int, code: int) -> Frame | None:
         if code == SYN_REPORT:
             if self._dropping:
                 self._dropping = False
+                if self.query_state is not None:
+                    return self.resync(self.query_state(), sec, usec)
                 return None
-            events = self._pending
-            self._pending = []
-            self._apply(events)
+            pending = self._pending
+            if pending:
+                self._apply(pending)
+                pending.clear()
             return self._commit(sec, usec)
         if code == SYN_DROPPED:
             self.stats["syn_dropped"] += 1
@@ -183,21 +229,13 @@ class FrameAssembler:
             return None
         return None  # SYN_CONFIG, SYN_MT_REPORT (protocol A, read single-touch)
 
-    def feed_all(self, events: list[tuple[int, int, int, int, int]]) -> list[Frame]:
-        out = []
-        feed = self.feed
-        for s, u, t, c, v in events:
-            f = feed(s, u, t, c, v)
-            if f is not None:
-                out.append(f)
-        return out
-
     def resync(self, state: DeviceState, sec: int, usec: int) -> Frame:
         """Adopt the state queried after SYN_DROPPED and report it as a frame."""
         self._dropping = False
         self._pending.clear()
         self.needs_resync = False
         self._keys = set(state.keys) & set(self._valid_keys)
+        self._keys_changed = True
         for code, value in state.axes.items():
             if code in self._abs and code < ABS_MT_SLOT:
                 self._abs[code] = value
@@ -215,6 +253,7 @@ class FrameAssembler:
                 if code > ABS_MT_SLOT and code not in state.slots:
                     self._set_slot_value(current, code, value, resync=True)
         self._dedupe_tracking_ids()
+        self._dirty_all = True
         self.stats["resyncs"] += 1
         return self._commit(sec, usec)
 
@@ -226,48 +265,80 @@ class FrameAssembler:
         ended = tuple(_ended(c) for c in self._published.values())
         self._published = {}
         self._keys.clear()
+        self._keys_changed = True
         for s in self._slots:
             s.tid = -1
         self._seen_position = False
+        self._dirty_all = True
         return Frame(sec, usec, (), ended)
 
     # -- state ---------------------------------------------------------------
 
     def _apply(self, events: list[tuple[int, int, int]]) -> None:
         stats = self.stats
+        ranges = self._ranges
+        mt = self.multitouch
+        abs_ = self._abs
+        keys = self._keys
+        valid_keys = self._valid_keys
+        if not mt:
+            self._dirty_all = True
+        cur = self._slot
+        slot_ok = self._slot_ok
+        slots = self._slots
+        dirty = self._dirty
         for ev_type, code, value in events:
             if ev_type == EV_ABS:
-                rng = self._ranges.get(code)
-                if rng is None:
-                    stats["unknown_code"] += 1
-                    continue
-                if code >= ABS_MT_SLOT and self.multitouch:
+                if mt and code >= ABS_MT_SLOT:
                     if code == ABS_MT_SLOT:
-                        self._slot = value
-                        self._slot_ok = 0 <= value < self.num_slots
-                        if not self._slot_ok:
+                        cur = value
+                        slot_ok = 0 <= value < self.num_slots
+                        if not slot_ok:
                             stats["slot_out_of_range"] += 1
                         continue
-                    if not self._slot_ok:
+                    if not slot_ok:
                         stats["slot_out_of_range"] += 1
                         continue
-                    self._set_slot_value(self._slots[self._slot], code, value)
+                    rng = ranges.get(code)
+                    if rng is None:
+                        stats["unknown_code"] += 1
+                        continue
+                    s = slots[cur]
+                    dirty.add(cur)
+                    if code == ABS_MT_POSITION_X:
+                        s.x = value
+                    elif code == ABS_MT_POSITION_Y:
+                        s.y = value
+                    else:
+                        self._set_slot_value(s, code, value)
+                        continue
+                    if not rng[0] <= value <= rng[1]:
+                        stats["value_out_of_range"] += 1
                     continue
-                if value < rng[0] or value > rng[1]:
+                rng = ranges.get(code)
+                if rng is None:
+                    stats["unknown_code"] += 1
+                elif rng[0] <= value <= rng[1]:
+                    abs_[code] = value
+                else:
                     stats["value_out_of_range"] += 1
-                self._abs[code] = value
-                if code <= 1:
-                    self._seen_position = True
+                    abs_[code] = value
             elif ev_type == EV_KEY:
-                if code not in self._valid_keys:
+                if code not in valid_keys:
                     stats["unknown_code"] += 1
                 elif value == 0:
-                    self._keys.discard(code)
-                elif value in (1, 2):
-                    self._keys.add(code)
+                    keys.discard(code)
+                    self._dirty_all = self._keys_changed = True
+                elif value == 1 or value == 2:
+                    keys.add(code)
+                    self._dirty_all = self._keys_changed = True
                 else:
                     stats["bad_key_value"] += 1
             # EV_MSC (serial numbers, scan codes) and others carry no contact state
+        self._slot = cur
+        self._slot_ok = slot_ok
+        if not self._seen_position and not mt and (ABS_X in abs_ or ABS_Y in abs_):
+            self._seen_position = any(t == EV_ABS and c <= ABS_Y for t, c, _ in events)
 
     def _set_slot_value(self, slot: _Slot, code: int, value: int, resync: bool = False) -> None:
         if code == ABS_MT_TRACKING_ID:
@@ -318,78 +389,120 @@ class FrameAssembler:
                 b |= bit
         return b
 
-    def _current(self) -> dict[int, Contact]:
-        buttons = self._buttons()
+    def _current_mt(self) -> dict[int, Contact]:
+        """Active slots; contacts of slots untouched since the last frame are reused."""
         out: dict[int, Contact] = {}
-        if self.multitouch:
-            has_p = self._has_mt_pressure
-            for i, s in enumerate(self._slots):
-                if s.tid < 0:
+        prev = self._published
+        dirty = self._dirty
+        all_dirty = self._dirty_all
+        if self._keys_changed:
+            self._button_state = self._buttons()
+            self._keys_changed = False
+        buttons = self._button_state
+        has_p = self._has_mt_pressure
+        for i, s in enumerate(self._slots):
+            tid = s.tid
+            if tid < 0:
+                continue
+            if not all_dirty and i not in dirty:
+                c = prev.get(tid)
+                if c is not None and c.slot == i:
+                    out[tid] = c
                     continue
-                mt_tool = Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER
-                out[s.tid] = Contact(
-                    s.tid,
-                    i,
-                    s.tid,
-                    mt_tool,
-                    s.x,
-                    s.y,
-                    s.pressure if has_p else None,
-                    s.distance == 0,
-                    True,
-                    None,
-                    None,
-                    buttons,
-                )
-            return out
+            out[tid] = Contact(
+                tid,
+                i,
+                tid,
+                Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
+                s.x,
+                s.y,
+                s.pressure if has_p else None,
+                s.distance == 0,
+                True,
+                None,
+                None,
+                buttons,
+            )
+        return out
+
+    def _current_single(self) -> Contact | None:
         keys = self._keys
+        if self._keys_changed:
+            self._button_state = self._buttons()
+            self._keys_changed = False
         tool: Tool | None = None
         if self._has_tool_keys:
-            for code, t in _TOOL_ORDER:
-                if code in keys:
-                    tool = t
-                    break
+            if keys:
+                for code, t in _TOOL_ORDER:
+                    if code in keys:
+                        tool = t
+                        break
         elif self._seen_position:
             tool = self._default_tool  # no BTN_TOOL_*: in range once it reports a position
         if tool is None:
-            return out
+            return None
         a = self._abs
-        pressure = a.get(ecodes.ABS_PRESSURE) if self._has_pressure else None
+        pressure = a.get(ABS_PRESSURE) if self._has_pressure else None
         if self._has_touch_key:
-            tip = ecodes.BTN_TOUCH in keys
+            tip = BTN_TOUCH in keys
         else:
             tip = pressure is not None and pressure > self._pressure_min
-        tilt_x = a[ecodes.ABS_TILT_X] if self._has_tilt else None
-        tilt_y = a[ecodes.ABS_TILT_Y] if self._has_tilt else None
-        out[0] = Contact(
+        if self._has_tilt:
+            return Contact(
+                0,
+                None,
+                None,
+                tool,
+                a[ABS_X],
+                a[ABS_Y],
+                pressure,
+                tip,
+                True,
+                a[ABS_TILT_X],
+                a[ABS_TILT_Y],
+                self._button_state,
+            )
+        return Contact(
             0,
             None,
             None,
             tool,
-            a.get(ecodes.ABS_X, 0),
-            a.get(ecodes.ABS_Y, 0),
+            a[ABS_X],
+            a[ABS_Y],
             pressure,
             tip,
             True,
-            tilt_x,
-            tilt_y,
-            buttons,
+            None,
+            None,
+            self._button_state,
         )
-        return out
 
     def _commit(self, sec: int, usec: int) -> Frame:
         self.needs_resync = False
-        current = self._current()
+        self.stats["frames"] += 1
         published = self._published
+        if not self.multitouch:
+            prev = published.get(0)
+            cur = self._current_single() if self._dirty_all else prev
+            self._dirty_all = False
+            if cur is None:
+                self._published = {}
+                return Frame(sec, usec, (), (_ended(prev),) if prev is not None else ())
+            if cur is not prev:
+                self._published = {0: cur}
+            return Frame(sec, usec, (cur,), ())
+        current = self._current_mt()
+        self._dirty.clear()
+        self._dirty_all = False
         ended: tuple[Contact, ...] = ()
         if published:
-            gone = [c for cid, c in published.items() if cid not in current]
-            if gone:
-                ended = tuple(_ended(c) for c in gone)
+            for cid in published:
+                if cid not in current:
+                    ended = tuple(_ended(c) for k, c in published.items() if k not in current)
+                    break
         self._published = current
-        self.stats["frames"] += 1
         return Frame(sec, usec, tuple(current.values()), ended)
 
 
 def _ended(c: Contact) -> Contact:
-    return replace(c, tip=False, in_range=False)
+    return c._replace(tip=False, in_range=False)

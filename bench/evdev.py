@@ -1,0 +1,246 @@
+"""evdev framing: stiction's frame assembler against python-evdev's categorize() path, same run.
+
+    stiction bench evdev [--json] [--repeat N]
+
+Every event of every recording in shared/data/evdev is turned into frames
+(one snapshot of all contacts per SYN_REPORT) three ways, from the same
+pre-built `evdev.InputEvent` objects a live reader gets from `read()`:
+
+- naive: what one writes with python-evdev's own helpers: `evdev.categorize()`
+  per event, then dict bookkeeping keyed by the code names (`ecodes.ABS`,
+  `KeyEvent.keycode`), and a list of contact dicts at each SYN_REPORT;
+- stiction: `FrameAssembler.feed()` per event (the live reader's path), which
+  also buffers frames for SYN_DROPPED, checks ranges and ends contacts;
+- stiction, samples: the same plus conversion of each contact to a PenSample
+  in surface metres (what the daemon receives).
+
+Times are the minimum over repeats (the machine is shared; the minimum is the
+least disturbed run); the median is kept in the JSON. Both paths are checked
+to find the same number of frames and contacts before anything is timed.
+Writes bench/results/evdev.{json,txt,png}.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import statistics
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+RESULTS = Path(__file__).resolve().parent / "results"
+DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "evdev"
+RECORDINGS = [
+    "wacom-cintiq-13hd-touch-pen.evemu",
+    "wacom-cintiq-12wx.evemu",
+    "wacom-intuos4-6x9.desc",
+    "uc-logic-wp5540u-pen.evemu",
+    "wacom-cintiq-13hd-touch-finger.evemu",
+    "cypress-trackpad.two-finger-press.evemu",
+    "elantech-touchpad.samsung-700z3a.evemu",
+    "synaptics-touchpad.hp8470p.desc",
+    "wacom-intuos5-touch-m-finger.desc",
+]
+
+
+def _times(fn: Callable[[], object], repeat: int) -> list[float]:
+    out = []
+    for _ in range(repeat):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    return out
+
+
+def naive_frames(events: list[Any]) -> list[list[dict[str, Any]]]:
+    """The straightforward python-evdev way: categorize(), names, dicts."""
+    import evdev
+    from evdev import ecodes
+
+    frames: list[list[dict[str, Any]]] = []
+    slots: dict[int, dict[str, int]] = {}
+    single: dict[str, int] = {}
+    keys: dict[str, int] = {}
+    slot = 0
+    for ev in events:
+        c = evdev.categorize(ev)
+        if isinstance(c, evdev.AbsEvent):
+            name = ecodes.ABS[ev.code]
+            if isinstance(name, list):
+                name = name[0]
+            if name == "ABS_MT_SLOT":
+                slot = ev.value
+            elif name.startswith("ABS_MT_"):
+                slots.setdefault(slot, {})[name] = ev.value
+            else:
+                single[name] = ev.value
+        elif isinstance(c, evdev.KeyEvent):
+            kc = c.keycode
+            for k in kc if isinstance(kc, list | tuple) else [kc]:
+                keys[k] = c.keystate
+        elif isinstance(c, evdev.SynEvent) and ev.code == ecodes.SYN_REPORT:
+            if slots:
+                contacts = [
+                    dict(s, slot=i)
+                    for i, s in sorted(slots.items())
+                    if s.get("ABS_MT_TRACKING_ID", -1) >= 0
+                ]
+            elif any(v for k, v in keys.items() if k.startswith("BTN_TOOL_")) or (
+                "ABS_X" in single and not any(k.startswith("BTN_TOOL_") for k in keys)
+            ):
+                contacts = [dict(single, tip=keys.get("BTN_TOUCH", 0))]
+            else:
+                contacts = []
+            frames.append(contacts)
+    return frames
+
+
+def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
+    import evdev
+    from stiction.drivers.evdev import sizes
+    from stiction.drivers.evdev.frames import FrameAssembler
+    from stiction.drivers.evdev.recording import load
+    from stiction.drivers.evdev.units import SurfaceUnits
+
+    rec = load(path)
+    desc = sizes.apply(rec.description, (100.0, 60.0) if "synaptics" in path.name else None)
+    events = [evdev.InputEvent(s, u, t, c, v) for s, u, t, c, v in rec.events]
+    units = SurfaceUnits(desc)
+
+    def ours() -> list[Any]:
+        # exactly what DeviceSource does with each read() batch
+        asm = FrameAssembler(desc)
+        return asm.feed_many([(e.sec, e.usec, e.type, e.code, e.value) for e in events])
+
+    def ours_samples() -> int:
+        asm = FrameAssembler(desc)
+        sample = units.sample
+        n = 0
+        for f in asm.feed_many([(e.sec, e.usec, e.type, e.code, e.value) for e in events]):
+            t = f.time
+            for c in f.contacts:
+                sample(c, t)
+                n += 1
+        return n
+
+    def naive() -> list[Any]:
+        return naive_frames(events)
+
+    a, b = ours(), naive()
+    if len(a) != len(b) or sum(len(f.contacts) for f in a) != sum(len(f) for f in b):
+        raise SystemExit(f"{path.name}: the two paths disagree; refusing to time them")
+    loops = max(1, 20000 // len(events))
+
+    def many(fn: Callable[[], object]) -> Callable[[], None]:
+        def run() -> None:
+            for _ in range(loops):
+                fn()
+
+        return run
+
+    res = {}
+    for label, fn in (("naive", naive), ("stiction", ours), ("samples", ours_samples)):
+        ts = [t / loops for t in _times(many(fn), repeat)]
+        res[label] = {"min": min(ts), "median": statistics.median(ts)}
+    return {
+        "recording": path.name.split(".")[0],
+        "events": len(events),
+        "frames": len(a),
+        "contacts": sum(len(f.contacts) for f in a),
+        "seconds": res,
+    }
+
+
+def _table(rows: list[dict[str, Any]], pooled: dict[str, Any]) -> str:
+    head = (
+        f"{'recording':32} {'events':>6} {'frames':>6} {'naive us/fr':>11} "
+        f"{'stiction us/fr':>14} {'ratio':>6} {'+samples us/fr':>14} {'stiction Mev/s':>14}"
+    )
+    lines = [head, "-" * len(head)]
+    for r in [*rows, pooled]:
+        s = r["seconds"]
+        fr = r["frames"]
+        lines.append(
+            f"{r['recording']:32} {r['events']:>6} {fr:>6} "
+            f"{s['naive']['min'] / fr * 1e6:>11.2f} {s['stiction']['min'] / fr * 1e6:>14.2f} "
+            f"{s['naive']['min'] / s['stiction']['min']:>5.1f}x "
+            f"{s['samples']['min'] / fr * 1e6:>14.2f} "
+            f"{r['events'] / s['stiction']['min'] / 1e6:>14.2f}"
+        )
+    return "\n".join(lines)
+
+
+def _plot(rows: list[dict[str, Any]], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    names = [r["recording"] for r in rows]
+    naive = [r["seconds"]["naive"]["min"] / r["frames"] * 1e6 for r in rows]
+    ours = [r["seconds"]["stiction"]["min"] / r["frames"] * 1e6 for r in rows]
+    fig, ax = plt.subplots(figsize=(9, 4.5))
+    y = range(len(names))
+    ax.barh([i + 0.2 for i in y], naive, height=0.4, label="categorize() + dicts (naive)")
+    ax.barh([i - 0.2 for i in y], ours, height=0.4, label="stiction FrameAssembler")
+    ax.set_yticks(list(y), names)
+    ax.set_xlabel("microseconds per frame (min over repeats)")
+    ax.set_title("evdev framing cost per SYN_REPORT frame, same events, same run")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(prog="stiction bench evdev", description=__doc__.split("\n")[0])
+    ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    ap.add_argument("--repeat", type=int, default=9, help="timed repeats per path")
+    ap.add_argument("--no-write", action="store_true", help="do not write bench/results/")
+    args = ap.parse_args(argv)
+    rows = [_bench_recording(DATA / name, args.repeat) for name in RECORDINGS]
+    total_events = sum(r["events"] for r in rows)
+    total_frames = sum(r["frames"] for r in rows)
+    pooled_s = {
+        k: {m: sum(r["seconds"][k][m] for r in rows) for m in ("min", "median")}
+        for k in ("naive", "stiction", "samples")
+    }
+    pooled = {
+        "recording": "all (pooled)",
+        "events": total_events,
+        "frames": total_frames,
+        "contacts": sum(r["contacts"] for r in rows),
+        "seconds": pooled_s,
+    }
+    ratio = pooled_s["naive"]["min"] / pooled_s["stiction"]["min"]
+    table = _table(rows, pooled)
+    summary = (
+        f"\nframe assembler: {total_events / pooled_s['stiction']['min'] / 1e6:.2f} million "
+        f"events/s, {pooled_s['stiction']['min'] / total_frames * 1e6:.2f} us per frame; "
+        f"{ratio:.1f}x faster than categorize() + dicts "
+        f"({pooled_s['naive']['min'] / total_frames * 1e6:.2f} us per frame)\n"
+        f"with PenSample conversion: {pooled_s['samples']['min'] / total_frames * 1e6:.2f} us "
+        "per frame"
+    )
+    result = {
+        "benchmark": "evdev",
+        "python": platform.python_version(),
+        "machine": platform.machine(),
+        "repeat": args.repeat,
+        "recordings": rows,
+        "pooled": pooled,
+        "ratio_naive_over_stiction": ratio,
+    }
+    if args.json:
+        print(json.dumps(result, indent=2))
+    else:
+        print(table + summary)
+    if not args.no_write:
+        RESULTS.mkdir(parents=True, exist_ok=True)
+        (RESULTS / "evdev.json").write_text(json.dumps(result, indent=2) + "\n")
+        (RESULTS / "evdev.txt").write_text(table + summary + "\n")
+        _plot(rows, RESULTS / "evdev.png")
+    return 0
