@@ -184,3 +184,63 @@ def test_missing_partner_file_is_a_clear_error(tmp_path: Path, evdev_data: Path)
     with pytest.raises(RecordingError, match="several candidates"):
         load(desc)
     assert len(load(desc, tmp_path / "x.a.events").events) == 1
+
+
+class VirtualClock:
+    """Time that moves only when the replay waits: pacing without sleeping."""
+
+    def __init__(self) -> None:
+        self.now = 100.0
+        self.waits: list[float] = []
+
+    def clock(self) -> float:
+        return self.now
+
+    def wait(self, seconds: float) -> bool:
+        self.waits.append(seconds)
+        self.now += seconds
+        return False
+
+
+def test_realtime_replay_waits_for_recorded_times(evdev_data: Path) -> None:
+    from stiction.drivers.evdev.recording import load as load_rec
+    from stiction.drivers.evdev.replay import ReplaySource
+
+    vc = VirtualClock()
+    src = ReplaySource(
+        load_rec(evdev_data / "cypress-trackpad.two-finger-press.evemu"),
+        realtime=True,
+        clock=vc.clock,
+        wait=vc.wait,
+    )
+    seen = []
+    for s in src.samples():
+        seen.append((vc.now - 100.0, s.t))
+    t0 = seen[0][1]
+    for wall, t in seen:
+        assert wall == pytest.approx(t - t0, abs=1e-9)  # each frame waits until its time
+    assert sum(vc.waits) == pytest.approx(seen[-1][1] - t0)
+    fast = replay(evdev_data / "cypress-trackpad.two-finger-press.evemu", realtime=False)
+    assert [s.t for s in fast.samples()] == [t for _, t in seen]
+
+
+def test_close_stops_a_blocked_realtime_replay(evdev_data: Path) -> None:
+    import threading
+
+    src = replay(evdev_data / "elantech-touchpad.samsung-700z3a.evemu", realtime=True)
+    got: list[float] = []
+    first = threading.Event()
+
+    def consume() -> None:
+        for s in src.samples():
+            got.append(s.t)
+            first.set()
+
+    th = threading.Thread(target=consume)
+    th.start()
+    assert first.wait(10)
+    src.close()
+    src.close()  # idempotent
+    th.join(10)
+    assert not th.is_alive()
+    assert 0 < len(got) < 200  # 7.4 s of recording; stopped long before its end

@@ -31,6 +31,7 @@ class ReplaySource:
         realtime: bool = False,
         size_mm: tuple[float, float] | None = None,
         clock: Callable[[], float] = time.monotonic,
+        wait: Callable[[float], bool] | None = None,
     ) -> None:
         desc = sizes.apply(recording.description, size_mm)
         sizes.require(desc)
@@ -40,6 +41,8 @@ class ReplaySource:
         self._units = SurfaceUnits(desc)
         self._clock = clock
         self._closed = threading.Event()
+        #: waits up to the given seconds; True if close() was called meanwhile
+        self._wait = wait if wait is not None else self._closed.wait
         self._stats: Counter[str] = Counter()
         self._assembler: FrameAssembler | None = None
 
@@ -59,31 +62,25 @@ class ReplaySource:
         asm = FrameAssembler(self.description)
         self._assembler = asm
         events = self.recording.events
+        self._stats["events"] += len(events)
+        frames = asm.feed_many(events)  # a recording is small; frame it in one pass
+        if events:
+            end = asm.finish(events[-1][0], events[-1][1])
+            if end is not None:
+                frames.append(end)
+        units = self._units
         start_wall: float | None = None
         start_t = 0.0
-        units = self._units
-        feed = asm.feed
-        last = (0, 0)
-        for sec, usec, t, c, v in events:
+        for frame in frames:
             if self._closed.is_set():
                 return
-            self._stats["events"] += 1
-            last = (sec, usec)
-            frame = feed(sec, usec, t, c, v)
-            if frame is None:
-                continue
             if self.realtime:
                 if start_wall is None:
                     start_wall, start_t = self._clock(), frame.time
                 delay = start_wall + (frame.time - start_t) - self._clock()
-                if delay > 0 and self._closed.wait(delay):
+                if delay > 0 and self._wait(delay):
                     return
             for s in frame_samples(units, frame):
-                self._stats["samples"] += 1
-                yield s
-        end = asm.finish(*last)
-        if end is not None:
-            for s in frame_samples(units, end):
                 self._stats["samples"] += 1
                 yield s
 
