@@ -285,6 +285,7 @@ def test_random_streams_never_crash_and_contacts_stay_consistent(
 ) -> None:
     asm = FrameAssembler(desc)
     units = SurfaceUnits(desc)
+    w, h = units.surface_size or (0.0, 0.0)
     active: set[int] = set()
     usec = 0
     for (t, c), v in events:
@@ -299,6 +300,8 @@ def test_random_streams_never_crash_and_contacts_stay_consistent(
         for x in f.contacts:
             smp = units.sample(x, f.time)
             assert smp.pressure is None or 0.0 <= smp.pressure <= 1.0
+            assert 0.0 <= smp.x <= w and 0.0 <= smp.y <= h, "samples stay on the surface"
+            assert smp.t == f.time
             if desc is TOUCHPAD:
                 assert x.slot is not None and 0 <= x.slot < desc.num_slots
         for x in f.ended:

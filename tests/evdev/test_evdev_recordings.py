@@ -171,7 +171,8 @@ def test_no_resolution_needs_a_size(evdev_data: Path) -> None:
     src = replay(path, size_mm=(100.0, 60.0))
     assert src.surface_size == pytest.approx((0.1, 0.06))
     xs = [s.x for s in src.samples()]
-    assert min(xs) < 0 < max(xs) < 0.1  # the firmware's below-min X stays visible
+    assert min(xs) == 0.0 and 0 < max(xs) <= 0.1  # the firmware's below-min X is clamped
+    assert src.stats()["value_out_of_range"] > 0
 
 
 def test_missing_partner_file_is_a_clear_error(tmp_path: Path, evdev_data: Path) -> None:

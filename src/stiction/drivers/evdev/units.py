@@ -86,12 +86,22 @@ class SurfaceUnits:
         return 0.0 if p < 0.0 else 1.0 if p > 1.0 else p
 
     def sample(self, c: Contact, t: float) -> PenSample:
-        """The PenSample for a contact; requires a known resolution."""
+        """The PenSample for a contact; requires a known resolution.
+
+        Positions beyond the advertised range (real firmware does this, e.g.
+        the Synaptics recording's X down to 1298 with a minimum of 1472) are
+        clamped onto the surface, as the HID driver does, so the daemon never
+        maps a touch off the surface; the assembler counts them as
+        `value_out_of_range`. `decode` shows the unclamped values.
+        """
         tx, ty = self._tilt_x, self._tilt_y
+        xa, ya = self.x_axis, self.y_axis
+        x = c.x if xa.minimum <= c.x <= xa.maximum else max(xa.minimum, min(c.x, xa.maximum))
+        y = c.y if ya.minimum <= c.y <= ya.maximum else max(ya.minimum, min(c.y, ya.maximum))
         return PenSample(
             t=t,
-            x=(c.x - self.x_axis.minimum) / self._rx / 1000,
-            y=(c.y - self.y_axis.minimum) / self._ry / 1000,
+            x=(x - xa.minimum) / self._rx / 1000,
+            y=(y - ya.minimum) / self._ry / 1000,
             tip=c.tip,
             in_range=c.in_range,
             contact=c.id,
