@@ -245,3 +245,14 @@ def test_close_stops_a_blocked_realtime_replay(evdev_data: Path) -> None:
     th.join(10)
     assert not th.is_alive()
     assert 0 < len(got) < 200  # 7.4 s of recording; stopped long before its end
+
+
+def test_package_replay_factory_survives_submodule_import(evdev_data: Path) -> None:
+    """`stiction.drivers.evdev.replay(...)` is the contract even after the submodule loads."""
+    import importlib
+
+    import stiction.drivers.evdev as pkg
+
+    importlib.import_module("stiction.drivers.evdev.replay")
+    src = pkg.replay(evdev_data / "cypress-trackpad.two-finger-press.evemu", None, False)
+    assert src.kind == "touchpad" and len(list(src.samples())) == 69
