@@ -166,7 +166,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     u = sub.add_parser(
         "udev",
         help="udev rules giving the logged-in user access to tablets (no root at run time)",
-        description="Rules with TAG+=\"uaccess\" for the hidraw nodes of the devices in the "
+        description='Rules with TAG+="uaccess" for the hidraw nodes of the devices in the '
         "HID device table and for every tablet, touchpad and touchscreen event node.",
     )
     usub = u.add_subparsers(dest="udev_command", metavar="ACTION", required=True)
