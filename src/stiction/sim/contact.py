@@ -55,6 +55,10 @@ class ContactSim:
         self.rejected_samples = 0
         self.clamped_samples = 0
         self.event_overflows = 0
+        self.releases = 0
+        self.last_release = math.nan
+        """Time of the latest break-away (stick -> slip), located inside the step
+        when events are on, else the end of the step that detected it."""
         self._t: float | None = None
         self._last_sample_t = -math.inf
         self._mode = UP
@@ -125,12 +129,13 @@ class ContactSim:
             self._load = lg
             self._apply_load()
             if self._mode == STICK and self._stretch2() > self._rs2:
+                self._release(prev if prev is not None else t)
                 self._rest_decide(0.0, 0.0, from_stick=True)
         cur = prev if prev is not None else -math.inf
         for s in samples:
             cur = self._take(s, cur, t)
         if self._mode <= RESTING and t > cur:
-            self._run(t - cur, 0.0, 0.0, self._ux, self._uy)
+            self._run(t - cur, 0.0, 0.0, self._ux, self._uy, t)
         self._t = t
         self.state = st = self._snapshot(t)
         return st
@@ -165,15 +170,15 @@ class ContactSim:
             if tip:
                 h = ts - cur
                 if h > 0.0:
-                    self._run(h, (sx - self._ux) / h, (sy - self._uy) / h, sx, sy)
+                    self._run(h, (sx - self._ux) / h, (sy - self._uy) / h, sx, sy, ts)
                 else:
-                    self._jump(sx, sy)
+                    self._jump(sx, sy, ts)
             else:
                 # The contact ends at this sample; until then the touch is held
                 # where it was last seen touching (a lift-off sample's position
                 # may already be far away, or zero on some devices).
                 if ts > cur:
-                    self._run(ts - cur, 0.0, 0.0, self._ux, self._uy)
+                    self._run(ts - cur, 0.0, 0.0, self._ux, self._uy, ts)
                 self._lift(sx, sy, in_range)
         elif tip:
             self._ux = self._px = sx
@@ -195,11 +200,16 @@ class ContactSim:
         sy = self._uy - self._py
         return sx * sx + sy * sy
 
-    def _jump(self, x: float, y: float) -> None:
+    def _release(self, t: float) -> None:
+        self.releases += 1
+        self.last_release = t
+
+    def _jump(self, x: float, y: float, t: float) -> None:
         """A sample at the same instant as the path's end: the touch jumps."""
         self._ux, self._uy = x, y
         if self._mode == STICK:
             if self._stretch2() > self._rs2:
+                self._release(t)
                 self._rest_decide(0.0, 0.0, from_stick=True)
         elif self._mode == RESTING:
             self._rest_decide(0.0, 0.0)
@@ -234,8 +244,8 @@ class ContactSim:
         self._mode = MOVING
 
     # ------------------------------------------------------------ one segment
-    def _run(self, h: float, udx: float, udy: float, u1x: float, u1y: float) -> None:
-        """Advance over h seconds with the touch moving at (udx, udy), ending at u1."""
+    def _run(self, h: float, udx: float, udy: float, u1x: float, u1y: float, t_end: float) -> None:
+        """Advance over h seconds with the touch moving at (udx, udy), ending at u1 at t_end."""
         left = h
         zero_events = 0
         events = self.events
@@ -246,6 +256,7 @@ class ContactSim:
                 if not events:
                     self._ux, self._uy = u1x, u1y
                     if self._stretch2() > self._rs2:
+                        self._release(t_end)
                         self._rest_decide(udx, udy, from_stick=True)
                     return
                 tb = kernels.first_exit(
@@ -256,6 +267,7 @@ class ContactSim:
                 self._ux += udx * tb
                 self._uy += udy * tb
                 left -= tb
+                self._release(t_end - left)
                 self._rest_decide(udx, udy, from_stick=True)
                 consumed = tb
             elif mode == RESTING:
