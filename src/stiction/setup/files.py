@@ -7,6 +7,7 @@ and a file that cannot be written is a one-line StictionError naming it.
 
 from __future__ import annotations
 
+import contextlib
 import os
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,7 +40,8 @@ def install_text(path: Path, text: str, dry_run: bool, mode: int = 0o644) -> Out
         tmp.chmod(mode)
         tmp.replace(path)
     except OSError as exc:
-        tmp.unlink(missing_ok=True)
+        with contextlib.suppress(OSError):
+            tmp.unlink()
         raise StictionError(f"cannot write {path}: {exc.strerror or exc}") from None
     return Outcome(path, "written")
 
