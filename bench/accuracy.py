@@ -201,8 +201,10 @@ def time_per_step(setting: Setting, params: Params, all_ticks: list[list], repea
     best = math.inf
     n = sum(len(tk) for tk in all_ticks)
     for _ in range(repeats):
-        sims = [ContactSim(params, setting.integrator, setting.substeps, setting.events)
-                for _ in all_ticks]  # fmt: skip
+        sims = [
+            ContactSim(params, setting.integrator, setting.substeps, setting.events)
+            for _ in all_ticks
+        ]
         t0 = time.perf_counter()
         for sim, tk in zip(sims, all_ticks, strict=True):
             adv = sim.advance
@@ -333,10 +335,7 @@ def main(argv: list[str]) -> int:
         us = time_per_step(st, params, all_ticks, repeats)
         rows.append({"setting": st, "per": per, "us": us})
         step(st.label)
-    euler_us = next(
-        r["us"] for r in rows
-        if r["setting"] == Setting("explicit-euler", 1, False)
-    )  # fmt: skip
+    euler_us = next(r["us"] for r in rows if r["setting"] == Setting("explicit-euler", 1, False))
 
     contacts = args.contacts
     nticks = 60 if args.quick else 150
@@ -409,7 +408,7 @@ def main(argv: list[str]) -> int:
                         "endpoints_only": {"rms_px": o[0], "max_px": o[1]},
                     }
                     for n, e, o in follow
-                ],  # fmt: skip
+                ],
                 "batch_contacts": contacts,
                 "loop_ns_per_contact_step": naive_ns,
                 "targets": targets,
@@ -446,8 +445,8 @@ def _fmt(v: float | None, spec: str) -> str:
 
 def _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts) -> str:  # type: ignore[no-untyped-def]
     lines = [
-        "stiction bench accuracy: pointer error vs reference, worst stroke (220 ppi), 100 Hz ticks, "
-        "200 Hz samples",
+        "stiction bench accuracy: pointer error vs reference, worst stroke (220 ppi), "
+        "100 Hz ticks, 200 Hz samples",
         "",
         f"{'setting':34s} {'rms px':>9s} {'max px':>9s} {'release ms':>10s} {'us/step':>8s} "
         f"{'x Euler':>7s} {'batch ns':>9s}",
@@ -467,7 +466,8 @@ def _table(records, ref_check, follow, naive_ns, batch_default, targets, contact
     lines += ["", "following every sample vs tick endpoints only (default integrator; rms/max px):"]
     for n, e, o in follow:
         lines.append(
-            f"  {n:18s} every sample {e[0]:8.2e} / {e[1]:8.2e}   endpoints {o[0]:8.3f} / {o[1]:8.3f}"
+            f"  {n:18s} every sample {e[0]:8.2e} / {e[1]:8.2e}"
+            f"   endpoints {o[0]:8.3f} / {o[1]:8.3f}"
         )
     lines += [
         "",
@@ -497,14 +497,28 @@ def _plot(records, path: Path) -> None:  # type: ignore[no-untyped-def]
         if not front or err < front[-1][1]:
             front.append((us, err, x))
     colors = {
-        "explicit-euler": "tab:red", "semi-implicit-euler": "tab:orange", "rk4": "tab:purple",
-        "implicit-projection": "tab:blue", "exact": "tab:green",
-    }  # fmt: skip
+        "explicit-euler": "tab:red",
+        "semi-implicit-euler": "tab:orange",
+        "rk4": "tab:purple",
+        "implicit-projection": "tab:blue",
+        "exact": "tab:green",
+    }
     for us, err, x in pts:
-        ax.scatter(us, err, color=colors[x["integrator"]], marker="o" if x["events"] else "s",
-                   s=70 if x["default"] else 30, edgecolors="black" if x["default"] else "none")  # fmt: skip
-        ax.annotate(f"{x['integrator'].replace('-euler', '')} x{x['substeps']}", (us, err),
-                    fontsize=6, xytext=(3, 2), textcoords="offset points")  # fmt: skip
+        ax.scatter(
+            us,
+            err,
+            color=colors[x["integrator"]],
+            marker="o" if x["events"] else "s",
+            s=70 if x["default"] else 30,
+            edgecolors="black" if x["default"] else "none",
+        )
+        ax.annotate(
+            f"{x['integrator'].replace('-euler', '')} x{x['substeps']}",
+            (us, err),
+            fontsize=6,
+            xytext=(3, 2),
+            textcoords="offset points",
+        )
     ax.plot([p[0] for p in front], [p[1] for p in front], "k--", lw=0.8, label="Pareto front")
     ax.axhline(0.05, color="grey", lw=0.6, ls=":", label="0.05 px RMS target")
     ax.set_xscale("log")
