@@ -51,11 +51,13 @@ class HuionUsbBackend(usb.backend.IBackend):  # type: ignore[misc]
 
     strings: dict[int, bytes]
     present: bool = True
+    vid: int = VID
+    pid: int = PID
     requests: list[tuple[int, int, int, int, int]] = field(default_factory=list)
 
     def enumerate_devices(self) -> Any:
         if self.present:
-            yield _DeviceDescriptor()
+            yield _DeviceDescriptor(idVendor=self.vid, idProduct=self.pid)
 
     def get_device_descriptor(self, dev: Any) -> Any:
         return dev
@@ -87,18 +89,28 @@ class HuionUsbBackend(usb.backend.IBackend):  # type: ignore[misc]
         return n
 
 
+def v2_answer(max_x: int, max_y: int, max_pressure: int, lpi: int) -> bytes:
+    """String 200 of a v2 tablet: le24 max X and Y, le16 pressure and resolution."""
+    return string_descriptor(
+        max_x.to_bytes(3, "little")
+        + max_y.to_bytes(3, "little")
+        + max_pressure.to_bytes(2, "little")
+        + lpi.to_bytes(2, "little")
+        + bytes(6)
+    )
+
+
+def v1_answer(max_x: int, max_y: int, max_pressure: int, lpi: int) -> bytes:
+    """String 100 of a v1 tablet: le16 max X and Y, 2 unused bytes, pressure, resolution."""
+    return string_descriptor(
+        max_x.to_bytes(2, "little")
+        + max_y.to_bytes(2, "little")
+        + bytes(2)
+        + max_pressure.to_bytes(2, "little")
+        + lpi.to_bytes(2, "little")
+    )
+
+
 # HS610: 50800 x 31750 lines at 5080 lpi (10 x 6.25 in), 8192 pressure levels.
-V2 = string_descriptor(
-    (50800).to_bytes(3, "little")
-    + (31750).to_bytes(3, "little")
-    + (8191).to_bytes(2, "little")
-    + (5080).to_bytes(2, "little")
-    + bytes(6)
-)
-V1 = string_descriptor(
-    (20000).to_bytes(2, "little")
-    + (12500).to_bytes(2, "little")
-    + bytes(2)
-    + (2047).to_bytes(2, "little")
-    + (2000).to_bytes(2, "little")
-)
+V2 = v2_answer(50800, 31750, 8191, 5080)
+V1 = v1_answer(20000, 12500, 2047, 2000)

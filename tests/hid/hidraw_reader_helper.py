@@ -1,6 +1,7 @@
 """Runs inside umockdev-run: the production hidraw backend reads a mocked node.
 
-Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error] [--huion-usb]
+Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error]
+       [--huion-usb[=v1:X,Y,P,LPI]] [--usb-id=VVVV:PPPP]
 Prints one JSON line per PenSample, then a final {"stats": ...} line.
 Stops once the backend has fed N_REPORTS reports (waiting on the source's
 counters with a short timeout per check, never a fixed sleep), or when the
@@ -27,10 +28,18 @@ def main() -> int:
         for info in discover():
             print(json.dumps({"discover": asdict(info)}), flush=True)
     backend = None
-    if "--huion-usb" in sys.argv:
-        from fake_huion_usb import V2, HuionUsbBackend
+    usb_id = next((a.partition("=")[2] for a in sys.argv if a.startswith("--usb-id=")), None)
+    vid, pid = (int(v, 16) for v in usb_id.split(":")) if usb_id else (0x256C, 0x006D)
+    for arg in sys.argv:
+        if arg.startswith("--huion-usb"):
+            from fake_huion_usb import V2, HuionUsbBackend, v1_answer
 
-        backend = HuionUsbBackend({200: V2})
+            _, _, spec = arg.partition("=")
+            if spec.startswith("v1:"):
+                x, y, p, lpi = (int(v) for v in spec[3:].split(","))
+                backend = HuionUsbBackend({100: v1_answer(x, y, p, lpi)}, vid=vid, pid=pid)
+            else:
+                backend = HuionUsbBackend({200: V2}, vid=vid, pid=pid)
     src = open_hidraw(device, usb_backend=backend)
     print(json.dumps({"kind": src.kind, "size": src.surface_size, "name": src.name}), flush=True)
     out: list[str] = []

@@ -338,3 +338,32 @@ def test_table_size_overrides_a_wrong_descriptor(hid_data: Path) -> None:
     assert fixed.surface_size == pytest.approx((0.1524, 0.1016))
     user = ReportStream(desc, rec.name, (0.15, 0.1), lookup(rec.vid, rec.pid))
     assert user.surface_size == (0.15, 0.1)  # the user's size wins over the table's
+
+
+def test_eraser_bit_counts_only_with_invert(hid_data: Path) -> None:
+    """Microsoft's pen protocol: Eraser is the tip switch of the inverted pen."""
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")  # has Tip, Eraser and Invert
+    desc = parse_descriptor(rec.descriptor)
+    stream = ReportStream(desc, rec.name)
+    report = desc.input_reports[7]
+    (s,) = stream.feed(0.0, _encode(report, {(0, IN_RANGE): 1, (0, ERASER): 1}))
+    assert (s.tip, s.tool) == (False, Tool.PEN)
+    (s,) = stream.feed(0.01, _encode(report, {(0, IN_RANGE): 1, (0, ERASER): 1, (0, INVERT): 1}))
+    assert (s.tip, s.tool) == (True, Tool.ERASER)
+    (s,) = stream.feed(0.02, _encode(report, {(0, IN_RANGE): 1, (0, INVERT): 1}))
+    assert (s.tip, s.tool) == (False, Tool.ERASER)  # eraser end hovering
+
+
+@pytest.mark.parametrize(
+    ("name", "touching", "hovering"),
+    [("huion-580", 275, 1422), ("yiynova-mvp20u-rh", 885, 850)],
+)
+def test_uclogic_inverted_in_range_from_the_table(
+    hid_data: Path, name: str, touching: int, hovering: int
+) -> None:
+    """These record the pen touching with the in-range bit clear: it is inverted (table fix-up)."""
+    src = replay(hid_data / f"{name}.hid", realtime=False)
+    samples = list(src.samples())
+    assert sum(s.tip for s in samples) == touching
+    assert sum(s.in_range and not s.tip for s in samples) == hovering
+    assert all(s.in_range for s in samples if s.tip)

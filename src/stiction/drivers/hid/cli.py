@@ -107,18 +107,7 @@ def _decode(args: argparse.Namespace) -> int:
             obj["contacts"] = None
         else:
             obj["contacts"] = [
-                {
-                    "contact": s.contact,
-                    "x": s.x,
-                    "y": s.y,
-                    "tip": s.tip,
-                    "in_range": s.in_range,
-                    "pressure": s.pressure,
-                    "tool": s.tool.value,
-                    "tilt_x": s.tilt_x,
-                    "tilt_y": s.tilt_y,
-                    "buttons": s.buttons,
-                }
+                {k: v for k, v in _sample_json(s).items() if k != "t"}
                 for s in stream.feed(ev.t, ev.data)
             ]
         if args.json:
@@ -126,6 +115,51 @@ def _decode(args: argparse.Namespace) -> int:
         else:
             fields = " ".join(f"{k}={v}" for k, v in obj["fields"].items())
             print(f"{ev.t:.6f} report {rid}: {fields}")
+    return 0
+
+
+def _sample_json(s: Any) -> dict[str, Any]:
+    return {
+        "t": s.t,
+        "contact": s.contact,
+        "x": s.x,
+        "y": s.y,
+        "tip": s.tip,
+        "in_range": s.in_range,
+        "pressure": s.pressure,
+        "tool": s.tool.value,
+        "tilt_x": s.tilt_x,
+        "tilt_y": s.tilt_y,
+        "buttons": s.buttons,
+    }
+
+
+def _read(args: argparse.Namespace) -> int:
+    from stiction.drivers.hid import open_hidraw
+
+    src = open_hidraw(args.device, size_m=args.size)
+    size = src.surface_size
+    area = f"{size[0] * 1000:.1f} x {size[1] * 1000:.1f} mm" if size else "unknown size"
+    print(f"# {src.name}: {src.kind}, {area}", file=sys.stderr)
+    n = 0
+    try:
+        for s in src.samples():
+            if args.json:
+                print(json.dumps(_sample_json(s)), flush=True)
+            else:
+                state = "tip" if s.tip else ("hover" if s.in_range else "out")
+                pressure = "-" if s.pressure is None else f"{s.pressure:.3f}"
+                print(
+                    f"{s.t:.4f} contact {s.contact} {state:5s} x {s.x * 1000:8.3f} mm"
+                    f" y {s.y * 1000:8.3f} mm pressure {pressure} {s.tool.value}",
+                    flush=True,
+                )
+            n += 1
+            if args.count and n >= args.count:
+                break
+    finally:
+        src.close()
+        print(f"# {src.stats()}", file=sys.stderr)
     return 0
 
 
@@ -146,3 +180,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="active area in mm when the descriptor and device table lack it",
     )
     e.set_defaults(func=_decode)
+    r = hsub.add_parser("read", help="print the pen/touch samples of a live hidraw device")
+    r.add_argument("device", help="/dev/hidrawN, or vid:pid (e.g. 28bd:0907)")
+    r.add_argument("--json", action="store_true", help="one JSON object per sample")
+    r.add_argument("--count", type=int, default=0, help="stop after N samples")
+    r.add_argument(
+        "--size",
+        type=_size,
+        metavar="WxH",
+        help="active area in mm when the descriptor and device table lack it",
+    )
+    r.set_defaults(func=_read)

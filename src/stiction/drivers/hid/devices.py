@@ -16,6 +16,7 @@ from pathlib import Path
 from stiction.errors import DeviceError
 
 INIT_KINDS = ("huion-string-descriptor", "feature:", "output:")
+REPORT_FIXUPS = ("uclogic-v1", "uclogic-v2")
 
 
 @dataclass(frozen=True, slots=True)
@@ -29,6 +30,7 @@ class DeviceEntry:
     pen_reports: frozenset[int] = frozenset()
     usage_aliases: dict[int, int] = field(default_factory=dict)
     descriptor: bytes | None = None
+    report_fixup: str | None = None
 
 
 def _int(text: str, where: str) -> int:
@@ -72,6 +74,11 @@ def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
     if not isinstance(aliases_raw, dict):
         raise DeviceError(f"{where}: 'usage_aliases' must be a table")
     aliases = {_int(str(k), where): _int(str(v), where) for k, v in aliases_raw.items()}
+    report_fixup = raw.get("report_fixup")
+    if report_fixup is not None and report_fixup not in REPORT_FIXUPS:
+        raise DeviceError(
+            f"{where}: unknown report_fixup {report_fixup!r}; known: {', '.join(REPORT_FIXUPS)}"
+        )
     desc = raw.get("descriptor")
     descriptor = None
     if desc is not None:
@@ -82,7 +89,16 @@ def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
         except ValueError:
             raise DeviceError(f"{where}: 'descriptor' is not hex") from None
     return DeviceEntry(
-        vid, pid, name, source, init, size_m, frozenset(pen_reports), aliases, descriptor
+        vid,
+        pid,
+        name,
+        source,
+        init,
+        size_m,
+        frozenset(pen_reports),
+        aliases,
+        descriptor,
+        report_fixup if isinstance(report_fixup, str) else None,
     )
 
 

@@ -292,8 +292,12 @@ class ContactTracker:
         pressure: float | None = None
         if TIP_PRESSURE in el and c.pressure_span > 0:
             pressure = min(max((v[el[TIP_PRESSURE]] - c.pressure_min) / c.pressure_span, 0.0), 1.0)
-        eraser = bool(eraser_i is not None and v[eraser_i])
         inverted = bool(invert_i is not None and v[invert_i])
+        # Eraser is the tip switch of the pen's eraser end, which the pen
+        # signals with Invert (Microsoft's pen protocol); where the descriptor
+        # has Invert, an Eraser bit without it is not a touch (UC-Logic
+        # firmware descriptors put Eraser on the second barrel button's bit).
+        eraser = bool(eraser_i is not None and v[eraser_i]) and (inverted or invert_i is None)
         if tip_i is not None:
             tip = bool(v[tip_i]) or eraser
         else:

@@ -48,6 +48,10 @@ class ReportStream:
         pen counts as gone this many seconds after its last report (see `idle`).
         """
         self.desc = desc
+        if fixup is None and entry is not None and entry.report_fixup is not None:
+            from stiction.drivers.hid.uclogic import FIXUPS
+
+            fixup = FIXUPS[entry.report_fixup]
         self.fixup = fixup
         self.proximity_timeout = proximity_timeout
         self._last_report_t: float | None = None

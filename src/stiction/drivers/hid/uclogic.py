@@ -17,7 +17,7 @@ specification):
 
 `fixup_v2` moves the bytes into the order the generated descriptor
 declares (X 24 bits at 2-4, Y 24 bits at 5-7, pressure at 8-9), sets the
-in-range bit; `fixup_v1` inverts it. Frame-button reports are dropped.
+in-range bit and drops frame-button reports; `fixup_v1` inverts the bit.
 """
 
 from __future__ import annotations
@@ -91,13 +91,20 @@ def fixup_v2(data: bytes) -> bytes | None:
 
 
 def fixup_v1(data: bytes) -> bytes | None:
+    # Bit 5 marks frame-button reports only on v1 tablets whose button pad
+    # was switched on (string 123); stiction does not, so it is kept.
     if not data or data[0] != PEN_V1_ID or len(data) < 2:
         return data
-    if data[1] & FRAME_FLAG:
-        return None
     b = bytearray(data)
     b[1] ^= IN_RANGE_BIT
     return bytes(b)
+
+
+FIXUPS: dict[str, Callable[[bytes], bytes | None]] = {
+    "uclogic-v1": fixup_v1,
+    "uclogic-v2": fixup_v2,
+}
+"""By the names the device table's `report_fixup` uses."""
 
 
 def fixup(params: HuionParams) -> Callable[[bytes], bytes | None]:
