@@ -35,6 +35,8 @@ HERE = Path(__file__).resolve().parent
 REPO = HERE.parents[1]
 CONTROLLER = HERE / "setup_doctor_controller.py"
 SYSTEM_PY = "/usr/bin/python3"
+# sudo's PATH rarely has the venv, so the fix names this installation's stiction
+INSTALL = f"sudo {Path(sys.executable).parent / 'stiction'} udev install"
 
 pytestmark = pytest.mark.umockdev
 
@@ -157,7 +159,7 @@ def test_unreadable_nodes_are_permission_problems_with_the_udev_fix(
         d = found[path]
         assert d["problem"] == "permission", d
         assert "Permission denied" in d["detail"]
-        assert "sudo stiction udev install" in d["fix"]
+        assert INSTALL in d["fix"]
     assert found["/dev/hidraw6"]["kind"] == "pen"  # known as a digitizer without opening it
 
 
@@ -187,7 +189,7 @@ def test_huion_without_usb_access_is_a_vendor_init_problem(machine: dict[str, An
     assert "string descriptor" in d["detail"]
     assert "Access denied" in d["detail"]  # libusb could not open the USB node
     assert "/dev/bus/usb/001/017" in d["fix"]
-    assert "sudo stiction udev install" in d["fix"]
+    assert INSTALL in d["fix"]
 
 
 def test_configured_size_fixes_the_device_and_exit_status_is_zero(
@@ -220,7 +222,7 @@ def test_human_output_names_problem_and_fix(tmp_path: Path, evdev_data: Path) ->
     # the same run without --json
     human = _run_doctor_text(tmp_path, spec_nodes, deny=(locked.dev,))
     assert "PROBLEM (permission)" in human
-    assert "fix: install stiction's udev rule: `sudo stiction udev install`" in human
+    assert f"fix: install stiction's udev rule: `{INSTALL}`" in human
     assert "0 of 1 devices usable" in human
 
 

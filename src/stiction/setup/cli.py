@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import shlex
 import sys
 from pathlib import Path
 from typing import Any
@@ -28,15 +27,8 @@ def _udev_print(args: argparse.Namespace) -> int:
     return 0
 
 
-def _self_command() -> str:
-    """How to run this very `stiction` under sudo (sudo's PATH rarely has a venv)."""
-    exe = Path(sys.argv[0])
-    name = str(exe.absolute()) if exe.name == "stiction" and exe.parent != Path() else "stiction"
-    return shlex.quote(name)
-
-
 def _udev_install(args: argparse.Namespace) -> int:
-    from stiction.setup.files import install_text, is_root
+    from stiction.setup.files import install_rules_command, install_text, is_root
     from stiction.setup.udev_rules import builtin_rules
 
     path: Path = args.path or _default_rules_path()
@@ -60,7 +52,7 @@ def _udev_install(args: argparse.Namespace) -> int:
     if args.dry_run:
         return 0
     raise StictionError(
-        f"not root, nothing written; run `sudo {_self_command()} udev install`, "
+        f"not root, nothing written; run `{install_rules_command()}`, "
         f"or `stiction udev print | sudo tee {path}`"
     )
 
@@ -147,6 +139,7 @@ def _doctor(args: argparse.Namespace) -> int:
 
 def _rules_status(expected: str) -> str:
     """Where stiction's udev rules are installed, and whether they match this version."""
+    from stiction.setup.files import install_rules_command
     from stiction.setup.udev_rules import RULES_NAME
 
     for directory in (RULES_DIR, Path("/run/udev/rules.d"), Path("/usr/lib/udev/rules.d")):
@@ -157,8 +150,8 @@ def _rules_status(expected: str) -> str:
             continue
         if text == expected:
             return f"{path} (current)"
-        return f"{path} differs from this version's rules: `sudo stiction udev install`"
-    return f"not installed (`sudo stiction udev install` writes {_default_rules_path()})"
+        return f"{path} differs from this version's rules: `{install_rules_command()}`"
+    return f"not installed (`{install_rules_command()}` writes {_default_rules_path()})"
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:

@@ -33,6 +33,7 @@ from typing import Any
 
 from stiction.drivers.info import DeviceInfo
 from stiction.errors import StictionError
+from stiction.setup.files import install_rules_command
 
 PERMISSION = "permission"
 BUSY = "busy"
@@ -40,8 +41,6 @@ SIZE = "no-size"
 VENDOR_INIT = "vendor-init"
 GONE = "gone"
 OTHER = "other"
-
-INSTALL_RULES = "sudo stiction udev install"
 
 
 @dataclass(frozen=True, slots=True)
@@ -130,7 +129,7 @@ def _node_problem(info: DeviceInfo) -> Finding | None:
             info,
             PERMISSION,
             f"you may not open {info.path} ({os.strerror(code)})",
-            f"install stiction's udev rule: `{INSTALL_RULES}`, then re-plug the device "
+            f"install stiction's udev rule: `{install_rules_command()}`, then re-plug the device "
             "(the rule gives the logged-in user access; no group or root needed)",
         )
     if code in (errno.ENOENT, errno.ENODEV, errno.ENXIO):
@@ -283,7 +282,7 @@ def check_hidraw(info: DeviceInfo, conf: Configured, config: Path) -> Finding:
                     VENDOR_INIT,
                     "vendor mode not enabled: the Huion initialisation (USB string "
                     f"descriptor 200, else 100, read with pyusb) failed: {init_exc}",
-                    f"it needs write access to {node}: `{INSTALL_RULES}` gives it to the "
+                    f"it needs write access to {node}: `{install_rules_command()}` gives it to the "
                     "logged-in user; re-plug the tablet afterwards",
                 )
         if _hid_lacks_size(info, conf.surface_size):

@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shlex
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -48,3 +50,15 @@ def install_text(path: Path, text: str, dry_run: bool, mode: int = 0o644) -> Out
 
 def is_root() -> bool:
     return os.geteuid() == 0
+
+
+def stiction_command() -> str:
+    """How to run this installation's `stiction` from sudo, whose PATH rarely has a venv."""
+    beside = Path(sys.executable).parent / "stiction"
+    if beside.is_file() and os.access(beside, os.X_OK):
+        return shlex.quote(str(beside.absolute()))
+    return "stiction"
+
+
+def install_rules_command() -> str:
+    return f"sudo {stiction_command()} udev install"
