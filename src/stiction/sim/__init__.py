@@ -50,7 +50,21 @@ EXTENSIONS (beyond the contract above, all optional):
 - Samples without an ``in_range`` attribute (``Touch``) end a contact as "up";
   ``PenSample`` with ``in_range=True`` and ``tip=False`` gives "hover".
 - ``Params.w`` (sqrt(k/m)); ``ContactSim.mode`` (internal mode, RESTING is
-  the "slip" phase at rest).
+  the "slip" phase at rest); ``ContactSim.releases`` / ``last_release``
+  (count and time of break-aways, located inside the step with events on).
+- ``BatchSim(n, params=None, integrator="default", substeps=1, events=None,
+  string=True)``; ``advance(t, x, y, tip, *, in_range=None, params=None,
+  load_gain=1.0)`` takes one sample per contact stamped at tick time t
+  (arrays of length n; a non-finite x or y holds the touch and counts in
+  ``rejected_samples``); ``state(i)`` is contact i as a ContactState,
+  ``pointer`` / ``touch`` are (2, n) arrays, ``phase_codes`` index
+  ``stiction.sim.batch.PHASE_CODES``, ``tension()``. Integrators: exact
+  (default, with events), explicit-euler, semi-implicit-euler,
+  implicit-projection (without events); rk4 has no batch form.
+- The exact integrator freezes the friction direction over a step at the
+  implicit mid-step velocity direction (see contact.py): exact on straight
+  strokes, second order in the turning of the direction in 2-D, and stable
+  where friction dominates the pen's momentum.
 """
 
 from stiction.sim.batch import BatchSim
