@@ -28,7 +28,7 @@ STARTER_CONFIG = """\
 # Reload after editing: systemctl --user reload stictiond
 #
 # [daemon]
-# pub = "tcp://127.0.0.1:5555"   # where display clients subscribe (see docs/daemon.md)
+# pub = "tcp://127.0.0.1:5556"   # where display clients subscribe (the default)
 #
 # [[devices]]
 # spec = "/dev/input/event7"     # a node from `stiction doctor`, or "vvvv:pppp"
