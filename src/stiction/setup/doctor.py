@@ -98,7 +98,8 @@ def load_configured(config: Path | None) -> tuple[dict[str, Configured], dict[st
         spec = parse_spec(dev.spec)
         value = Configured(dev.surface_size, dev.grab)
         if spec.kind in ("hidraw", "evdev"):
-            by_path[spec.target] = value
+            # /dev/input/by-id/... names the same node discovery lists as eventN
+            by_path[os.path.realpath(spec.target)] = value
         elif spec.kind == "vidpid":
             by_id[spec.target] = value
     return by_path, by_id
@@ -313,6 +314,6 @@ def diagnose(config: Path) -> list[Finding]:
     by_path, by_id = load_configured(config)
     out = []
     for info in discover_all():
-        conf = by_path.get(info.path) or by_id.get(info.vid_pid) or Configured()
+        conf = by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid) or Configured()
         out.append(check(info, conf, config))
     return out
