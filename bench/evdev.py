@@ -141,10 +141,14 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
 
         return run
 
-    res = {}
-    for label, fn in (("naive", naive), ("stiction", ours), ("samples", ours_samples)):
-        ts = [t / loops for t in _times(many(fn), repeat)]
-        res[label] = {"min": min(ts), "median": statistics.median(ts)}
+    # Interleaved: each repeat times every path once, so a burst of load from
+    # other processes hits all of them alike.
+    paths = {"naive": many(naive), "stiction": many(ours), "samples": many(ours_samples)}
+    ts: dict[str, list[float]] = {k: [] for k in paths}
+    for _ in range(repeat):
+        for label, fn in paths.items():
+            ts[label].extend(t / loops for t in _times(fn, 1))
+    res = {k: {"min": min(v), "median": statistics.median(v)} for k, v in ts.items()}
     return {
         "recording": path.name.split(".")[0],
         "events": len(events),

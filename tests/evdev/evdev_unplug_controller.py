@@ -7,8 +7,9 @@ every read with ENODEV, as the kernel does for a vanished device
 (shared/design/umockdev-evdev.md section 6). The reader is stiction's own
 driver in a subprocess; this script only reports what it printed.
 
-usage: evdev_unplug_controller.py DIR READER_PYTHON READER_SCRIPT UNPLUG_AFTER
-prints one JSON object: {"reader": [lines...], "returncode": int}
+usage: evdev_unplug_controller.py DIR READER_PYTHON READER_SCRIPT UNPLUG_AFTER [crash]
+prints one JSON object: {"reader": [lines...], "returncode": int, "grabs": [EVIOCGRAB args]}
+With `crash`, nothing is unplugged: the reader is expected to die on its own.
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ class Handler(UMockdev.IoctlBase):
         super().__init__()
         self.table = table
         self.unplugged = threading.Event()
+        self.grabs: list[int] = []  # EVIOCGRAB arguments in order: 1 grab, 0 release
 
     def do_handle_ioctl(self, client):  # type: ignore[no-untyped-def]
         if self.unplugged.is_set():
@@ -68,6 +70,8 @@ class Handler(UMockdev.IoctlBase):
             return True
         req = client.get_request()
         if req == EVIOCGRAB:
+            arg = client.get_arg()
+            self.grabs.append(int.from_bytes(bytes(arg.data or b"")[:8], "little"))
             client.complete(0, 0)
             return True
         hit = self.table.get(req)
@@ -86,8 +90,13 @@ class Handler(UMockdev.IoctlBase):
         return False
 
 
+class _Done(Exception):
+    pass
+
+
 def main() -> int:
     d, reader_py, reader_script, unplug_after = sys.argv[1:5]
+    mode = sys.argv[5] if len(sys.argv) > 5 else "unplug"
     node = "/dev/input/event5"
     sys_event = "/sys/devices/virtual/input/input5/event5"
     sys_input = "/sys/devices/virtual/input/input5"
@@ -130,6 +139,8 @@ def main() -> int:
     try:
         assert next_line() == "ready", lines
         tb.load_evemu_events(node, os.path.join(d, "event5.events"))
+        if mode == "crash":  # the reader dies by itself; only watch its grabs
+            raise TimeoutError("crash mode") if proc.wait(timeout=30) is None else _Done()
         samples = 0
         while samples < int(unplug_after):
             if next_line().startswith("["):
@@ -158,7 +169,9 @@ def main() -> int:
         proc.stdin.write("replugged\n")  # type: ignore[union-attr]
         proc.stdin.flush()  # type: ignore[union-attr]
         next_line()
-    except (TimeoutError, AssertionError) as exc:
+    except _Done:
+        pass
+    except (TimeoutError, AssertionError, subprocess.TimeoutExpired) as exc:
         lines.append(f"controller: {exc}")
     finally:
         with contextlib.suppress(OSError):
@@ -171,7 +184,16 @@ def main() -> int:
             out, err = proc.communicate()
         lines.extend(pending)
         lines.extend(x for x in (buf.decode() + out).splitlines() if x)
-        print(json.dumps({"reader": lines, "stderr": err, "returncode": proc.returncode}))
+        print(
+            json.dumps(
+                {
+                    "reader": lines,
+                    "stderr": err,
+                    "returncode": proc.returncode,
+                    "grabs": handler.grabs,
+                }
+            )
+        )
         del tb
     return 0
 

@@ -271,3 +271,37 @@ def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
     assert "no such input device" in reopen[0]["reopen_failed"]
     assert reopen[1] == {"reopened": "wacom-cintiq-13hd-touch-pen", "path": "/dev/input/event6"}
     assert out["returncode"] == 0, out["stderr"]
+
+
+CRASH_READER = textwrap.dedent(
+    """
+    import sys
+    from stiction.drivers.evdev import open_device
+    src = open_device(sys.argv[1], grab=True)
+    print("ready", flush=True)
+    for n, s in enumerate(src.samples()):
+        if n == 5:
+            raise RuntimeError("a bug in the consumer")
+    """
+)
+
+
+@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+def test_grab_is_released_when_the_consumer_crashes(evdev_data: Path, tmp_path: Path) -> None:
+    import subprocess
+
+    write(load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu"), tmp_path, num=5)
+    controller = Path(__file__).with_name("evdev_unplug_controller.py")
+    argv = [str(controller), str(tmp_path), stiction_cmd()[0], CRASH_READER, "0", "crash"]
+    proc = subprocess.run(
+        ["umockdev-wrapper", "/usr/bin/python3", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert "RuntimeError: a bug in the consumer" in out["stderr"]
+    assert out["returncode"] == 1
+    assert out["grabs"] == [1, 0]  # EVIOCGRAB 1 on open, EVIOCGRAB 0 on the way out

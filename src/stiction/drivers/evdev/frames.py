@@ -127,6 +127,12 @@ class DeviceState:
 class _Slot:
     __slots__ = ("distance", "pressure", "tid", "tool_type", "x", "y")
 
+    def state(self) -> tuple[int, int, int, int | None, int, int]:
+        return (self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type)
+
+    def restore(self, st: tuple[int, int, int, int | None, int, int]) -> None:
+        self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type = st
+
     def __init__(self) -> None:
         self.tid = -1
         self.x = 0
@@ -144,7 +150,10 @@ class FrameAssembler:
         self.stats: Counter[str] = Counter()
         self.multitouch = desc.is_multitouch
         self.num_slots = desc.num_slots
-        self._pending: list[tuple[int, int, int]] = []
+        self._n_pending = 0  # events of the frame in progress
+        self._undo_abs: dict[int, int] = {}  # axis -> value at the last SYN_REPORT
+        self._undo_slots: dict[int, tuple[int, int, int, int | None, int, int]] = {}
+        self._keys_ok: frozenset[int] | None = None  # key set at the last SYN_REPORT
         self._dropping = False
         #: True after SYN_DROPPED until resync() (live devices) or the next frame
         self.needs_resync = False
@@ -166,75 +175,176 @@ class FrameAssembler:
         self._has_tilt = ecodes.ABS_TILT_X in desc.axes and ecodes.ABS_TILT_Y in desc.axes
         self._pressure_min = desc.axes[ecodes.ABS_PRESSURE].minimum if self._has_pressure else 0
         self._seen_position = False
-        self._published: dict[int, Contact] = {}
+        self._last: tuple[Contact, ...] = ()  # the contacts of the last frame
+        self._tid_changed = False  # a tracking id changed since the last frame
         self._dirty: set[int] = set()  # slots changed since the last frame
         self._dirty_all = True  # keys changed / single-touch state changed / resync
         self._button_state = 0
         self._keys_changed = False
         self._default_tool = Tool.PEN if desc.kind == "pen" else Tool.FINGER
+        self._slot_start = (self._slot, self._slot_ok)
+        self._seen_start = False
 
     # -- input ---------------------------------------------------------------
 
     def feed(self, sec: int, usec: int, ev_type: int, code: int, value: int) -> Frame | None:
         """Consume one event; a SYN_REPORT that completes a good frame returns it."""
-        if ev_type != EV_SYN:
-            if self._dropping:
-                self.stats["events_discarded"] += 1
-            else:
-                self._pending.append((ev_type, code, value))
-            return None
-        return self._syn(sec, usec, code)
-
-    def feed_many(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
-        """Consume a batch (a read() worth, or a whole recording); the frames it completes.
-
-        The same as feed() per event, with the per-event work inlined: this is
-        the path of the live reader and of replay.
-        """
-        out: list[Frame] = []
-        append = self._pending.append
-        for sec, usec, ev_type, code, value in events:
-            if ev_type:  # not EV_SYN
-                if self._dropping:
-                    self.stats["events_discarded"] += 1
-                else:
-                    append((ev_type, code, value))
-            else:
-                f = self._syn(sec, usec, code)
-                if f is not None:
-                    out.append(f)
-        return out
+        frames = self.feed_many(((sec, usec, ev_type, code, value),))
+        return frames[0] if frames else None
 
     def feed_all(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
         return self.feed_many(events)
 
-    def _syn(self, sec: int, usec: int, code: int) -> Frame | None:
-        if code == SYN_REPORT:
+    def feed_many(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+        """Consume a batch (a read() worth, or a whole recording); the frames it completes.
+
+        One pass: each event goes straight into the state, and the first change
+        of each axis, slot and the key set within a frame is remembered, so
+        that SYN_DROPPED can put back the last complete frame's state (the
+        kernel's rule: a partial frame must not be used). This is the path of
+        the live reader and of replay; it is written for speed, and a test
+        checks it against a plain buffer-then-apply implementation.
+        """
+        out: list[Frame] = []
+        stats = self.stats
+        ranges = self._ranges
+        abs_ = self._abs
+        keys = self._keys
+        valid_keys = self._valid_keys
+        mt = self.multitouch
+        slots = self._slots
+        dirty = self._dirty
+        undo_abs = self._undo_abs
+        undo_slots = self._undo_slots
+        n = self._n_pending
+        for sec, usec, ev_type, code, value in events:
             if self._dropping:
-                self._dropping = False
-                if self.query_state is not None:
-                    return self.resync(self.query_state(), sec, usec)
-                return None
-            pending = self._pending
-            if pending:
-                self._apply(pending)
-                pending.clear()
-            return self._commit(sec, usec)
-        if code == SYN_DROPPED:
-            self.stats["syn_dropped"] += 1
-            self.stats["events_discarded"] += len(self._pending)
-            self._pending.clear()
-            self._dropping = True
-            self.needs_resync = True
-            return None
-        return None  # SYN_CONFIG, SYN_MT_REPORT (protocol A, read single-touch)
+                if ev_type != EV_SYN:
+                    stats["events_discarded"] += 1
+                elif code == SYN_REPORT:
+                    self._dropping = False
+                    if self.query_state is not None:
+                        out.append(self.resync(self.query_state(), sec, usec))
+                elif code == SYN_DROPPED:
+                    stats["syn_dropped"] += 1
+                continue
+            if ev_type == EV_ABS:
+                n += 1
+                if mt and code >= ABS_MT_SLOT:
+                    if code == ABS_MT_SLOT:
+                        self._slot = value
+                        self._slot_ok = 0 <= value < self.num_slots
+                        if not self._slot_ok:
+                            stats["slot_out_of_range"] += 1
+                        continue
+                    if not self._slot_ok:
+                        stats["slot_out_of_range"] += 1
+                        continue
+                    rng = ranges.get(code)
+                    if rng is None:
+                        stats["unknown_code"] += 1
+                        continue
+                    cur = self._slot
+                    slot = slots[cur]
+                    if cur not in dirty:
+                        dirty.add(cur)
+                        undo_slots[cur] = slot.state()
+                    if code == ABS_MT_POSITION_X:
+                        slot.x = value
+                    elif code == ABS_MT_POSITION_Y:
+                        slot.y = value
+                    else:
+                        self._set_slot_value(slot, code, value)
+                        continue
+                    if not rng[0] <= value <= rng[1]:
+                        stats["value_out_of_range"] += 1
+                    continue
+                rng = ranges.get(code)
+                if rng is None:
+                    stats["unknown_code"] += 1
+                    continue
+                if mt:
+                    continue  # the legacy single-touch axes of a multi-touch device
+                if code not in undo_abs:
+                    undo_abs[code] = abs_[code]
+                abs_[code] = value
+                if not rng[0] <= value <= rng[1]:
+                    stats["value_out_of_range"] += 1
+                if code <= ABS_Y:
+                    self._seen_position = True
+            elif ev_type == EV_KEY:
+                n += 1
+                if code not in valid_keys:
+                    stats["unknown_code"] += 1
+                    continue
+                if value == 0:
+                    if self._keys_ok is None:
+                        self._keys_ok = frozenset(keys)
+                    keys.discard(code)
+                elif value == 1 or value == 2:
+                    if self._keys_ok is None:
+                        self._keys_ok = frozenset(keys)
+                    keys.add(code)
+                else:
+                    stats["bad_key_value"] += 1
+                    continue
+                self._keys_changed = True
+            elif ev_type == EV_SYN:
+                if code == SYN_REPORT:
+                    if n and not mt:
+                        self._dirty_all = True
+                    if self._keys_ok is not None:
+                        self._dirty_all = True
+                    out.append(self._commit(sec, usec))
+                    n = 0
+                    self._end_frame()
+                elif code == SYN_DROPPED:
+                    stats["syn_dropped"] += 1
+                    stats["events_discarded"] += n
+                    n = 0
+                    self._rollback()
+                    self._dropping = True
+                    self.needs_resync = True
+                # SYN_CONFIG, SYN_MT_REPORT (protocol A devices are read single-touch)
+            else:
+                n += 1  # EV_MSC (serials, scan codes) and others carry no contact state
+        self._n_pending = n
+        return out
+
+    def _end_frame(self) -> None:
+        """The frame is committed: forget how to undo it."""
+        self._undo_abs.clear()
+        self._undo_slots.clear()
+        self._keys_ok = None
+        self._slot_start = (self._slot, self._slot_ok)
+        self._seen_start = self._seen_position
+
+    def _rollback(self) -> None:
+        """Back to the state of the last complete frame (SYN_DROPPED mid-frame)."""
+        abs_ = self._abs
+        for code, v in self._undo_abs.items():
+            abs_[code] = v
+        for i, st in self._undo_slots.items():
+            self._slots[i].restore(st)
+            self._tid_changed = True
+        if self._keys_ok is not None:
+            self._keys.clear()
+            self._keys.update(self._keys_ok)
+            self._keys_changed = True
+        self._slot, self._slot_ok = self._slot_start
+        self._seen_position = self._seen_start
+        self._dirty.clear()
+        self._undo_abs.clear()
+        self._undo_slots.clear()
+        self._keys_ok = None
 
     def resync(self, state: DeviceState, sec: int, usec: int) -> Frame:
         """Adopt the state queried after SYN_DROPPED and report it as a frame."""
         self._dropping = False
-        self._pending.clear()
+        self._rollback()  # nothing half-applied may survive into the re-read state
         self.needs_resync = False
-        self._keys = set(state.keys) & set(self._valid_keys)
+        self._keys.clear()  # in place: feed_many() holds a reference
+        self._keys.update(k for k in state.keys if k in self._valid_keys)
         self._keys_changed = True
         for code, value in state.axes.items():
             if code in self._abs and code < ABS_MT_SLOT:
@@ -255,93 +365,33 @@ class FrameAssembler:
         self._dedupe_tracking_ids()
         self._dirty_all = True
         self.stats["resyncs"] += 1
-        return self._commit(sec, usec)
+        frame = self._commit(sec, usec)
+        self._end_frame()
+        return frame
 
     def finish(self, sec: int, usec: int) -> Frame | None:
         """End every contact (stream over or device gone); None if none was active."""
-        self._pending.clear()
-        if not self._published:
+        self._rollback()
+        self._n_pending = 0
+        if not self._last:
             return None
-        ended = tuple(_ended(c) for c in self._published.values())
-        self._published = {}
+        ended = tuple(_ended(c) for c in self._last)
+        self._last = ()
+        self._tid_changed = True
         self._keys.clear()
         self._keys_changed = True
         for s in self._slots:
             s.tid = -1
         self._seen_position = False
         self._dirty_all = True
+        self._end_frame()
         return Frame(sec, usec, (), ended)
 
     # -- state ---------------------------------------------------------------
 
-    def _apply(self, events: list[tuple[int, int, int]]) -> None:
-        stats = self.stats
-        ranges = self._ranges
-        mt = self.multitouch
-        abs_ = self._abs
-        keys = self._keys
-        valid_keys = self._valid_keys
-        if not mt:
-            self._dirty_all = True
-        cur = self._slot
-        slot_ok = self._slot_ok
-        slots = self._slots
-        dirty = self._dirty
-        for ev_type, code, value in events:
-            if ev_type == EV_ABS:
-                if mt and code >= ABS_MT_SLOT:
-                    if code == ABS_MT_SLOT:
-                        cur = value
-                        slot_ok = 0 <= value < self.num_slots
-                        if not slot_ok:
-                            stats["slot_out_of_range"] += 1
-                        continue
-                    if not slot_ok:
-                        stats["slot_out_of_range"] += 1
-                        continue
-                    rng = ranges.get(code)
-                    if rng is None:
-                        stats["unknown_code"] += 1
-                        continue
-                    s = slots[cur]
-                    dirty.add(cur)
-                    if code == ABS_MT_POSITION_X:
-                        s.x = value
-                    elif code == ABS_MT_POSITION_Y:
-                        s.y = value
-                    else:
-                        self._set_slot_value(s, code, value)
-                        continue
-                    if not rng[0] <= value <= rng[1]:
-                        stats["value_out_of_range"] += 1
-                    continue
-                rng = ranges.get(code)
-                if rng is None:
-                    stats["unknown_code"] += 1
-                elif rng[0] <= value <= rng[1]:
-                    abs_[code] = value
-                else:
-                    stats["value_out_of_range"] += 1
-                    abs_[code] = value
-            elif ev_type == EV_KEY:
-                if code not in valid_keys:
-                    stats["unknown_code"] += 1
-                elif value == 0:
-                    keys.discard(code)
-                    self._dirty_all = self._keys_changed = True
-                elif value == 1 or value == 2:
-                    keys.add(code)
-                    self._dirty_all = self._keys_changed = True
-                else:
-                    stats["bad_key_value"] += 1
-            # EV_MSC (serial numbers, scan codes) and others carry no contact state
-        self._slot = cur
-        self._slot_ok = slot_ok
-        if not self._seen_position and not mt and (ABS_X in abs_ or ABS_Y in abs_):
-            self._seen_position = any(t == EV_ABS and c <= ABS_Y for t, c, _ in events)
-
     def _set_slot_value(self, slot: _Slot, code: int, value: int, resync: bool = False) -> None:
         if code == ABS_MT_TRACKING_ID:
+            self._tid_changed = True
             if value < 0:
                 slot.tid = -1
                 return
@@ -392,7 +442,7 @@ class FrameAssembler:
     def _current_mt(self) -> dict[int, Contact]:
         """Active slots; contacts of slots untouched since the last frame are reused."""
         out: dict[int, Contact] = {}
-        prev = self._published
+        prev = {c.id: c for c in self._last}
         dirty = self._dirty
         all_dirty = self._dirty_all
         if self._keys_changed:
@@ -477,31 +527,59 @@ class FrameAssembler:
             self._button_state,
         )
 
+    def _contact_mt(self, i: int) -> Contact:
+        s = self._slots[i]
+        return Contact(
+            s.tid,
+            i,
+            s.tid,
+            Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
+            s.x,
+            s.y,
+            s.pressure if self._has_mt_pressure else None,
+            s.distance == 0,
+            True,
+            None,
+            None,
+            self._button_state,
+        )
+
     def _commit(self, sec: int, usec: int) -> Frame:
         self.needs_resync = False
         self.stats["frames"] += 1
-        published = self._published
+        last = self._last
         if not self.multitouch:
-            prev = published.get(0)
+            prev = last[0] if last else None
             cur = self._current_single() if self._dirty_all else prev
             self._dirty_all = False
             if cur is None:
-                self._published = {}
+                self._last = ()
                 return Frame(sec, usec, (), (_ended(prev),) if prev is not None else ())
             if cur is not prev:
-                self._published = {0: cur}
-            return Frame(sec, usec, (cur,), ())
-        current = self._current_mt()
-        self._dirty.clear()
-        self._dirty_all = False
-        ended: tuple[Contact, ...] = ()
-        if published:
-            for cid in published:
-                if cid not in current:
-                    ended = tuple(_ended(c) for k, c in published.items() if k not in current)
+                self._last = (cur,)
+            return Frame(sec, usec, self._last, ())
+        dirty = self._dirty
+        if self._tid_changed or self._dirty_all:
+            # contacts may have begun or ended: rebuild and compare ids
+            current = self._current_mt()
+            ended: tuple[Contact, ...] = ()
+            for c in last:
+                if c.id not in current:
+                    ended = tuple(_ended(c) for c in last if c.id not in current)
                     break
-        self._published = current
-        return Frame(sec, usec, tuple(current.values()), ended)
+            contacts = tuple(current.values())
+            self._tid_changed = self._dirty_all = False
+        else:
+            # the common frame: the same contacts, some of them moved
+            ended = ()
+            contacts = (
+                tuple(self._contact_mt(c.slot) if c.slot in dirty else c for c in last)  # type: ignore[arg-type]
+                if dirty
+                else last
+            )
+        dirty.clear()
+        self._last = contacts
+        return Frame(sec, usec, contacts, ended)
 
 
 def _ended(c: Contact) -> Contact:
