@@ -127,12 +127,6 @@ class DeviceState:
 class _Slot:
     __slots__ = ("distance", "pressure", "tid", "tool_type", "x", "y")
 
-    def state(self) -> tuple[int, int, int, int | None, int, int]:
-        return (self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type)
-
-    def restore(self, st: tuple[int, int, int, int | None, int, int]) -> None:
-        self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type = st
-
     def __init__(self) -> None:
         self.tid = -1
         self.x = 0
@@ -140,6 +134,12 @@ class _Slot:
         self.pressure: int | None = None
         self.distance = 0
         self.tool_type = 0
+
+    def state(self) -> tuple[int, int, int, int | None, int, int]:
+        return (self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type)
+
+    def restore(self, st: tuple[int, int, int, int | None, int, int]) -> None:
+        self.tid, self.x, self.y, self.pressure, self.distance, self.tool_type = st
 
 
 class FrameAssembler:
