@@ -248,3 +248,28 @@ def _run_doctor_text(tmp: Path, nodes: list[Node], deny: tuple[str, ...]) -> str
     assert proc.returncode == 0, proc.stderr
     out: str = json.loads(proc.stdout)["stdout"]
     return out
+
+
+def test_hidraw_tablet_without_size_then_configured(tmp_path: Path, hid_data: Path) -> None:
+    """A tablet outside the table whose descriptor has no physical size (a Huion clone)."""
+    _need_tools()
+    rec = load_recording(hid_data / "huion-hs610.hid")  # unit in^3: no usable size
+    node = hidraw_node("Tablet Clone", 0x1234, 0x5678, rec.descriptor, 5, tmp_path)
+    before = _run_doctor(tmp_path, [node])
+    d = before["report"]["devices"][0]
+    assert (d["kind"], d["problem"]) == ("pen", "no-size"), d
+    assert 'spec = "/dev/hidraw5"' in d["fix"]
+    config = tmp_path / "config" / "stiction" / "stictiond.toml"
+    config.parent.mkdir(parents=True)
+    config.write_text('[[devices]]\nspec = "1234:5678"\nsurface_size = [0.254, 0.159]\n')
+    after = _run_doctor(tmp_path, [node])
+    assert after["report"]["devices"][0]["ok"] is True, after["report"]
+    assert after["returncode"] == 0
+
+
+def test_no_devices_is_not_ok(tmp_path: Path) -> None:
+    _need_tools()
+    result = _run_doctor(tmp_path, [])
+    assert result["report"]["devices"] == []
+    assert result["report"]["ok"] is False
+    assert result["returncode"] == 1
