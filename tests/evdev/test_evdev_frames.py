@@ -394,3 +394,25 @@ def test_one_pass_assembler_equals_reference_on_random_streams(
     desc: DeviceDescription, events: list[tuple[tuple[int, int], int]]
 ) -> None:
     _same_as_reference(desc, [(0, i, t, c, v) for i, ((t, c), v) in enumerate(events)])
+
+
+def test_palm_is_not_a_contact_and_a_finger_turning_palm_ends() -> None:
+    desc = DeviceDescription(
+        name="Palm Pad",
+        keys=TOUCHPAD.keys,
+        axes={**TOUCHPAD.axes, e.ABS_MT_TOOL_TYPE: AbsAxis(0, 0, 2)},
+    )
+    s = Stream(FrameAssembler(desc))
+    touch(s, 0, 1, 100, 100)
+    touch(s, 1, 2, 300, 300)
+    s.abs(e.ABS_MT_TOOL_TYPE, 2)  # slot 1 is a palm from the start
+    f = s.syn()
+    assert f is not None and [c.id for c in f.contacts] == [1]
+    s.abs(e.ABS_MT_SLOT, 0)
+    s.abs(e.ABS_MT_TOOL_TYPE, 2)  # the finger in slot 0 becomes a palm
+    f = s.syn()
+    assert f is not None and f.contacts == () and [c.id for c in f.ended] == [1]
+    s.abs(e.ABS_MT_TOOL_TYPE, 0)  # and back to a finger: the same id begins again
+    s.abs(e.ABS_MT_POSITION_X, 120)
+    f = s.syn()
+    assert f is not None and [(c.id, c.x) for c in f.contacts] == [(1, 120)]

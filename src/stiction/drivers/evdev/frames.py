@@ -46,6 +46,7 @@ ABS_MT_PRESSURE = ecodes.ABS_MT_PRESSURE
 ABS_MT_DISTANCE = ecodes.ABS_MT_DISTANCE
 ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
+MT_TOOL_PALM = 2  # kernel: a palm is not a touch; a finger turning palm has lifted
 ABS_X = ecodes.ABS_X
 ABS_Y = ecodes.ABS_Y
 ABS_PRESSURE = ecodes.ABS_PRESSURE
@@ -418,6 +419,8 @@ class FrameAssembler:
         elif code == ABS_MT_DISTANCE:
             slot.distance = value
         elif code == ABS_MT_TOOL_TYPE:
+            if value != slot.tool_type:
+                self._tid_changed = True  # finger <-> palm changes who is a contact
             slot.tool_type = value
 
     def _dedupe_tracking_ids(self) -> None:
@@ -452,7 +455,7 @@ class FrameAssembler:
         has_p = self._has_mt_pressure
         for i, s in enumerate(self._slots):
             tid = s.tid
-            if tid < 0:
+            if tid < 0 or s.tool_type == MT_TOOL_PALM:
                 continue
             if not all_dirty and i not in dirty:
                 c = prev.get(tid)
