@@ -264,3 +264,22 @@ def test_energy_never_increases_with_the_touch_held(integrator: str) -> None:
     held = [energy(sim, s) for s in states if s.t > 0.8 + 1e-9]
     for e0, e1 in itertools.pairwise(held):
         assert e1 <= e0 * (1 + 1e-12) + 1e-30
+
+
+@pytest.mark.parametrize("mu_s", [0.0078125, 1.5e-12])
+def test_stick_radius_below_coordinate_round_off(mu_s: float) -> None:
+    """Found by hypothesis: at 1 m coordinates the stretch carries ~1e-16 m of
+    round-off, larger than a tiny stick radius; break-away and re-stick must
+    not both fire at the boundary (they ping-ponged and froze the contact)."""
+    p = Params(k=1.0, m=1e-6, mu_s=mu_s, mu_k=1.0, rate=60.0)
+    sim = ContactSim(p)
+    sim.advance(0.0, [Touch(0.0, 0.0, 1.0)])
+    sim.advance(1 / 60, [])
+    sim.advance(2 / 60, [])
+    st = sim.advance(3 / 60, [Touch(0.05, 0.0, 1.000001)])
+    assert sim.event_overflows == 0 and sim.releases == 1
+    assert st.phase == "slip"
+    for k in range(4, 200):
+        st = sim.advance(k / 60, [Touch(k / 60, 1e-7 * k, 1.000001 + 1e-7 * k)])
+        assert st.phase != "stick" or st.tension <= p.F_s * (1 + 1e-9)
+    assert sim.event_overflows == 0

@@ -271,9 +271,13 @@ class BatchSim:
                         consumed[ii] = used
                 z = live & (consumed <= eps)
                 zero[z] += 1
-                over = zero > _MAX_ZERO_EVENTS
+                over = live & (zero > _MAX_ZERO_EVENTS)
                 if over.any():
-                    self.event_overflows += int(np.count_nonzero(over & live))
+                    # As ContactSim: end the step consistently (see _run there).
+                    self.event_overflows += int(np.count_nonzero(over))
+                    sub[UX, over] = sub[TGTX, over]
+                    sub[UY, over] = sub[TGTY, over]
+                    self._decide_subset(sub, md, over, False)
                     live &= ~over
 
     def _stick(self, s: F, md: npt.NDArray[np.int8]) -> tuple[B, F]:
@@ -287,7 +291,15 @@ class BatchSim:
                 self._decide_subset(s, md, rel, True)
             s[LEFT] = 0.0
             return np.ones(s.shape[1], dtype=bool), np.zeros(s.shape[1])
-        tb = first_exit_v(s[UX] - s[PX], s[UY] - s[PY], s[UDX], s[UDY], s[FS2], s[LEFT])
+        tb = first_exit_v(
+            s[UX] - s[PX],
+            s[UY] - s[PY],
+            s[UDX],
+            s[UDY],
+            s[FS2],
+            s[LEFT],
+            band_v(s[FS2], delta_v(s)),
+        )
         none = np.isinf(tb)
         tb0 = np.where(none, 0.0, tb)
         s[UX] += s[UDX] * tb0
@@ -316,9 +328,17 @@ class BatchSim:
             return np.ones(s.shape[1], dtype=bool), np.zeros(s.shape[1])
         sx = s[UX] - s[PX]
         sy = s[UY] - s[PY]
-        ts = first_entry_v(sx, sy, s[UDX], s[UDY], s[FS2], s[LEFT])
+        delta = delta_v(s)
+        fk2 = s[FK] * s[FK]
+        ts = first_entry_v(sx, sy, s[UDX], s[UDY], s[FS2], s[LEFT], band_v(s[FS2], delta))
         tm = first_exit_v(
-            k * sx + c * s[UDX], k * sy + c * s[UDY], k * s[UDX], k * s[UDY], s[FK] ** 2, s[LEFT]
+            k * sx + c * s[UDX],
+            k * sy + c * s[UDY],
+            k * s[UDX],
+            k * s[UDY],
+            fk2,
+            s[LEFT],
+            band_v(fk2, k * delta),
         )
         tau = np.minimum(ts, tm)
         none = np.isinf(tau)
@@ -612,12 +632,21 @@ def propagator_v(w: float, h: F) -> tuple[F, F, F, F]:
     return tuple(np.where(np.abs(c) >= kernels.TINY, c, 0.0) for c in out)  # type: ignore[return-value]
 
 
-def first_exit_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F) -> F:
+def band_v(r2: F, delta: F) -> F:
+    out: F = kernels.BOUNDARY * r2 + delta * (2.0 * np.sqrt(r2) + delta)
+    return out
+
+
+def delta_v(s: F) -> F:
+    out: F = kernels.ROUND_OFF * (np.abs(s[UX]) + np.abs(s[UY]) + np.abs(s[PX]) + np.abs(s[PY]))
+    return out
+
+
+def first_exit_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F, tol: F) -> F:
     """kernels.first_exit over arrays; inf where there is no crossing."""
     c = a0x * a0x + a0y * a0y - r2
     a = a1x * a1x + a1y * a1y
     b = 2.0 * (a0x * a1x + a0y * a1y)
-    tol = kernels.BOUNDARY * r2
     sq = np.sqrt(np.maximum(b * b - 4.0 * a * c, 0.0))
     inner = np.where(b <= 0.0, (-b + sq) / (2.0 * a), (2.0 * c) / (-b - sq))
     tau = np.where(c >= -tol, -b / a, inner)
@@ -626,11 +655,10 @@ def first_exit_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F) -> F:
     return out
 
 
-def first_entry_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F) -> F:
+def first_entry_v(a0x: F, a0y: F, a1x: F, a1y: F, r2: F, hmax: F, tol: F) -> F:
     c = a0x * a0x + a0y * a0y - r2
     a = a1x * a1x + a1y * a1y
     b = 2.0 * (a0x * a1x + a0y * a1y)
-    tol = kernels.BOUNDARY * r2
     disc = b * b - 4.0 * a * c
     q = 0.5 * (-b + np.sqrt(np.maximum(disc, 0.0)))
     tau = c / q

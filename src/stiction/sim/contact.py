@@ -195,6 +195,10 @@ class ContactSim:
         self._vx = self._vy = 0.0
         self._mode = HOVER if in_range else UP
 
+    def _delta(self) -> float:
+        """Round-off carried by the stretch u - p at these coordinates."""
+        return kernels.ROUND_OFF * (abs(self._ux) + abs(self._uy) + abs(self._px) + abs(self._py))
+
     def _stretch2(self) -> float:
         sx = self._ux - self._px
         sy = self._uy - self._py
@@ -260,7 +264,13 @@ class ContactSim:
                         self._rest_decide(udx, udy, from_stick=True)
                     return
                 tb = kernels.first_exit(
-                    self._ux - self._px, self._uy - self._py, udx, udy, self._rs2, left
+                    self._ux - self._px,
+                    self._uy - self._py,
+                    udx,
+                    udy,
+                    self._rs2,
+                    left,
+                    kernels.band(self._rs2, self._delta()),
                 )
                 if tb is None:
                     break
@@ -278,14 +288,19 @@ class ContactSim:
                     self._ux, self._uy = u1x, u1y
                     self._rest_decide(udx, udy)
                     return
-                ts = kernels.first_entry(sx, sy, udx, udy, self._rs2, left)
+                delta = self._delta()
+                fk2 = self._fk * self._fk
+                ts = kernels.first_entry(
+                    sx, sy, udx, udy, self._rs2, left, kernels.band(self._rs2, delta)
+                )
                 tm = kernels.first_exit(
-                    k * sx + self._c * udx,
+                    k * sx + c * udx,
                     k * sy + c * udy,
                     k * udx,
                     k * udy,
-                    self._fk * self._fk,
+                    fk2,
                     left,
+                    kernels.band(fk2, k * delta),
                 )
                 if ts is None and tm is None:
                     break
@@ -308,8 +323,12 @@ class ContactSim:
             if consumed <= eps:
                 zero_events += 1
                 if zero_events > _MAX_ZERO_EVENTS:
+                    # Should not happen; if it does, end the step in a state
+                    # that is at least consistent (phase matching the tension).
                     self.event_overflows += 1
-                    break
+                    self._ux, self._uy = u1x, u1y
+                    self._rest_decide(udx, udy)
+                    return
         self._ux, self._uy = u1x, u1y
 
     def _piece(self, h: float, udx: float, udy: float) -> tuple[float, bool]:

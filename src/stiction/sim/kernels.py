@@ -45,13 +45,24 @@ broken away, moving inward has just stuck. Without it, round-off at the crossing
 point can make both "break away" and "stick again" true at once."""
 
 
+ROUND_OFF = 1e-15
+"""Relative round-off of an absolute coordinate after a few operations."""
+
+
+def band(r2: float, delta: float) -> float:
+    """Half-width of the boundary band of |a|^2 = r2 when |a| carries an error delta."""
+    return BOUNDARY * r2 + delta * (2.0 * math.sqrt(r2) + delta)
+
+
 def first_exit(
-    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float
+    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
 ) -> float | None:
-    """First tau in [0, hmax] where |a0 + a1 tau|^2 passes r2 going out, else None."""
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 passes r2 going out, else None.
+
+    tol (from `band`) is the band around r2 that counts as on the boundary.
+    """
     c = a0x * a0x + a0y * a0y - r2
     b = 2.0 * (a0x * a1x + a0y * a1y)
-    tol = BOUNDARY * r2
     if c > tol or (c > -tol and b > 0.0):
         return 0.0
     a = a1x * a1x + a1y * a1y
@@ -69,12 +80,11 @@ def first_exit(
 
 
 def first_entry(
-    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float
+    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
 ) -> float | None:
     """First tau in [0, hmax] where |a0 + a1 tau|^2 falls to r2 or below, else None."""
     c = a0x * a0x + a0y * a0y - r2
     b = 2.0 * (a0x * a1x + a0y * a1y)
-    tol = BOUNDARY * r2
     if c < -tol or (c <= tol and b < 0.0):
         return 0.0
     a = a1x * a1x + a1y * a1y
