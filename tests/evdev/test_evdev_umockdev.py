@@ -305,3 +305,27 @@ def test_grab_is_released_when_the_consumer_crashes(evdev_data: Path, tmp_path: 
     assert "RuntimeError: a bug in the consumer" in out["stderr"]
     assert out["returncode"] == 1
     assert out["grabs"] == [1, 0]  # EVIOCGRAB 1 on open, EVIOCGRAB 0 on the way out
+
+
+@pytest.mark.parametrize(
+    ("name", "out"),
+    [
+        ("wacom-cintiq-13hd-touch-pen.evemu", "pen.yml"),
+        ("cypress-trackpad.two-finger-press.evemu", "pad.evemu"),
+    ],
+)
+def test_record_a_live_device_and_decode_it_again(
+    evdev_data: Path, tmp_path: Path, name: str, out: str
+) -> None:
+    expected = _expected_frames(evdev_data / name)
+    files = write(load(evdev_data / name), tmp_path)
+    target = tmp_path / out
+    cmd = stiction_cmd("evdev", "record", files.node, str(target), "--frames", str(len(expected)))
+    proc = run_under_umockdev([files], cmd)
+    assert proc.returncode == 0, proc.stderr
+    assert f"{len(expected)} frames written" in proc.stderr
+    again = _expected_frames(target)
+    assert again == expected
+    rec = load(target)
+    assert rec.description.name == load(evdev_data / name).description.name
+    assert rec.events == load(evdev_data / name).events

@@ -67,6 +67,23 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     r.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     r.set_defaults(func=_read)
 
+    w = evsub.add_parser(
+        "record",
+        help="record a live device to an evemu or libinput record file",
+        description=(
+            "Record the events of /dev/input/eventN, as evemu-record or libinput record "
+            "would, so that the session can be decoded and replayed later. The format "
+            "follows the file name: .yml/.yaml writes libinput record YAML, anything else "
+            "evemu. Stops after --frames N, on Ctrl-C, or when the device goes away; "
+            "what was recorded is kept."
+        ),
+    )
+    w.add_argument("device", help="/dev/input/eventN")
+    w.add_argument("output", help="file to write (.yml/.yaml: libinput record; else evemu)")
+    w.add_argument("--frames", type=int, metavar="N", help="stop after N SYN_REPORT frames")
+    w.add_argument("--grab", action="store_true", help="take the device exclusively")
+    w.set_defaults(func=_record)
+
     s = evsub.add_parser(
         "describe",
         help="what stiction makes of a device or recording: kind, axes, size",
@@ -213,3 +230,46 @@ def _abs_name(code: int) -> str:
 
     name = ecodes.ABS.get(code, str(code))
     return name[0] if isinstance(name, list) else str(name)
+
+
+def _record(args: argparse.Namespace) -> int:
+    from pathlib import Path
+
+    from stiction.drivers.evdev import evemu, libinput_record
+    from stiction.drivers.evdev.device import DeviceGone, DeviceSource
+
+    out_path = Path(args.output)
+    yaml_out = out_path.suffix in (".yml", ".yaml")
+    src = DeviceSource(args.device, grab=args.grab)
+    frames = 0
+    events = 0
+    try:
+        with open(out_path, "w", encoding="utf-8") as out:
+            desc = src.description
+            head = libinput_record.header(desc, args.device) if yaml_out else evemu.describe(desc)
+            out.write(head)
+            frame: list[tuple[int, int, int, int, int]] = []
+            try:
+                for batch in src.batches():
+                    for ev in batch:
+                        frame.append(ev)
+                        if ev[2] == 0 and ev[3] == 0:  # SYN_REPORT: the frame is whole
+                            out.write(
+                                libinput_record.frame_text(frame)
+                                if yaml_out
+                                else evemu.write_events(frame)
+                            )
+                            out.flush()
+                            events += len(frame)
+                            frame = []
+                            frames += 1
+                            if args.frames is not None and frames >= args.frames:
+                                return 0
+            except KeyboardInterrupt:
+                pass
+            except DeviceGone as exc:
+                print(f"stiction: {exc}; recording kept", file=sys.stderr)
+    finally:
+        src.close()
+        print(f"{events} events, {frames} frames written to {out_path}", file=sys.stderr)
+    return 0

@@ -41,6 +41,13 @@ from stiction.errors import DeviceError
 
 log = logging.getLogger(__name__)
 
+Event = tuple[int, int, int, int, int]
+
+
+class DeviceGone(DeviceError):
+    """The device was unplugged while being read; it may come back as a new node."""
+
+
 _IOC_WRITE, _IOC_READ = 1, 2
 
 
@@ -200,18 +207,18 @@ class DeviceSource:
 
     # -- reading -------------------------------------------------------------
 
-    def frames(self) -> Iterator[Frame]:
-        """Frames as the kernel completes them; DeviceError when the device goes away."""
+    def batches(self) -> Iterator[list[Event]]:
+        """The raw events as each read() returns them (for `stiction evdev record`).
+
+        Raises DeviceGone (a DeviceError) when the device goes away; the grab
+        is released however the iteration ends.
+        """
         with self._lock:
             if self._released or self._closed.is_set():
                 return
             self._reading = True
-        asm = FrameAssembler(self.description)
-        asm.query_state = self._query_state  # SYN_DROPPED: re-read, report as a frame
-        self._assembler = asm
         dev = self._dev
         fd = dev.fd
-        last = (0, 0)
         try:
             while not self._closed.is_set():
                 ready, _, _ = select.select([fd, self._wake_r], [], [])
@@ -223,15 +230,14 @@ class DeviceSource:
                     continue
                 except OSError as exc:
                     if exc.errno in (errno.ENODEV, errno.EIO, errno.EBADF):
-                        yield from self._unplugged(asm, last, exc.strerror or str(exc))
+                        raise self._gone(exc.strerror or str(exc)) from None
                     raise DeviceError(f"{self.path}: read failed: {exc.strerror or exc}") from None
                 if not batch:
                     # select said readable and read() got 0 bytes: end of file, the node
                     # was hung up (a real unplug gives ENODEV; umockdev gives EOF).
-                    yield from self._unplugged(asm, last, "end of file")
+                    raise self._gone("end of file")
                 self._stats["events"] += len(batch)
-                last = batch[-1][:2]
-                yield from asm.feed_many(batch)
+                yield batch
         finally:
             with self._lock:
                 self._reading = False
@@ -240,12 +246,25 @@ class DeviceSource:
                 else:
                     self._ungrab()
 
-    def _unplugged(self, asm: FrameAssembler, last: tuple[int, int], why: str) -> Iterator[Frame]:
+    def frames(self) -> Iterator[Frame]:
+        """Frames as the kernel completes them; DeviceError when the device goes away."""
+        asm = FrameAssembler(self.description)
+        asm.query_state = self._query_state  # SYN_DROPPED: re-read, report as a frame
+        self._assembler = asm
+        last = (0, 0)
+        try:
+            for batch in self.batches():
+                last = batch[-1][:2]
+                yield from asm.feed_many(batch)
+        except DeviceGone:
+            end = asm.finish(*last)  # every contact ends before the error is reported
+            if end is not None:
+                yield end
+            raise
+
+    def _gone(self, why: str) -> DeviceGone:
         self._stats["unplugged"] += 1
-        end = asm.finish(*last)
-        if end is not None:
-            yield end
-        raise DeviceError(f"{self.path} ({self.description.name!r}) went away ({why})")
+        return DeviceGone(f"{self.path} ({self.description.name!r}) went away ({why})")
 
     def _query_state(self) -> DeviceState:
         """Keys, axis values and slots, re-read from the kernel after SYN_DROPPED."""

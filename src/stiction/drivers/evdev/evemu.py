@@ -168,3 +168,36 @@ def write_events(events: list[Event]) -> str:
     zero-padded usec field as octal (see shared/design/umockdev-evdev.md).
     """
     return "".join(f"E: {s}.{u} {t:04x} {c:04x} {v}\n" for s, u, t, c, v in events)
+
+
+def _mask_lines(ev_type: int, bits: frozenset[int] | set[int]) -> list[str]:
+    size = max(8, (max(bits) // 64 + 1) * 8) if bits else 8
+    data = bytearray(size)
+    for b in bits:
+        data[b // 8] |= 1 << (b % 8)
+    return [
+        f"B: {ev_type:02x} " + " ".join(f"{x:02x}" for x in data[i : i + 8])
+        for i in range(0, size, 8)
+    ]
+
+
+def describe(desc: DeviceDescription) -> str:
+    """An evemu 1.3 description (what evemu-describe prints), readable by parse()."""
+    props = bytearray(8)
+    for p in desc.properties:
+        if p < 64:
+            props[p // 8] |= 1 << (p % 8)
+    lines = [
+        "# EVEMU 1.3",
+        f"# Input device name: {desc.name!r}",
+        f"N: {desc.name}",
+        f"I: {desc.bustype:04x} {desc.vendor:04x} {desc.product:04x} {desc.version:04x}",
+        "P: " + " ".join(f"{x:02x}" for x in props),
+        *_mask_lines(EV_SYN, {0, 1, 3}),
+        *_mask_lines(EV_KEY, desc.keys),
+        *_mask_lines(EV_ABS, frozenset(desc.axes)),
+        *(line for t, c in sorted(desc.other.items()) for line in _mask_lines(t, c)),
+    ]
+    for code, a in sorted(desc.axes.items()):
+        lines.append(f"A: {code:02x} {a.minimum} {a.maximum} {a.fuzz} {a.flat} {int(a.resolution)}")
+    return "\n".join(lines) + "\n"

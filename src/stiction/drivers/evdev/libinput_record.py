@@ -136,12 +136,8 @@ def parse(
     return desc, events
 
 
-def dump(desc: DeviceDescription, events: list[Event], node: str = "/dev/input/event0") -> str:
-    """Write a recording in the same format (used by tests and for conversion).
-
-    Events are grouped into one ``evdev`` frame per SYN_REPORT, as libinput
-    record does; times are written as recorded.
-    """
+def header(desc: DeviceDescription, node: str = "/dev/input/event0") -> str:
+    """Everything of a one-device recording up to its `events:` key."""
     codes: dict[int, list[int]] = {EV_SYN: [0, 1, 2, 3]}
     if desc.keys:
         codes[EV_KEY] = sorted(desc.keys)
@@ -170,17 +166,33 @@ def dump(desc: DeviceDescription, events: list[Event], node: str = "/dev/input/e
         f"      properties: [{', '.join(map(str, sorted(desc.properties)))}]",
         "    events:",
     ]
-    frame: list[str] = []
-    for s, u, typ, code, val in events:
-        frame.append(f"        - [{s:3d}, {u:6d}, {typ:3d}, {code:3d}, {val:6d}]")
-        if typ == EV_SYN and code == 0:
-            lines.append("      - evdev:")
-            lines.extend(frame)
+    return "\n".join(lines) + "\n"
+
+
+def frame_text(events: list[Event]) -> str:
+    """One `- evdev:` entry of the events list (a frame, ending in its SYN_REPORT)."""
+    rows = "".join(
+        f"        - [{s:3d}, {u:6d}, {t:3d}, {c:3d}, {v:6d}]\n" for s, u, t, c, v in events
+    )
+    return "      - evdev:\n" + rows
+
+
+def dump(desc: DeviceDescription, events: list[Event], node: str = "/dev/input/event0") -> str:
+    """A whole recording in this format (tests and conversion use it).
+
+    Events are grouped into one ``evdev`` entry per SYN_REPORT, as libinput
+    record does; times are written as recorded.
+    """
+    out = [header(desc, node)]
+    frame: list[Event] = []
+    for e in events:
+        frame.append(e)
+        if e[2] == EV_SYN and e[3] == 0:
+            out.append(frame_text(frame))
             frame = []
     if frame:
-        lines.append("      - evdev:")
-        lines.extend(frame)
-    return "\n".join(lines) + "\n"
+        out.append(frame_text(frame))
+    return "".join(out)
 
 
 def _quote(s: str) -> str:
