@@ -65,8 +65,14 @@ def _codes(desc: DeviceDescription, t: int) -> frozenset[int]:
     return desc.other.get(t, frozenset())
 
 
-def evdev_node(desc: DeviceDescription, num: int, out: Path, udev: dict[str, str]) -> Node:
-    """/dev/input/event<num> with `desc`'s identity, capabilities and absinfo."""
+def evdev_node(
+    desc: DeviceDescription, num: int, out: Path, udev: dict[str, str], id_input: bool = True
+) -> Node:
+    """/dev/input/event<num> with `desc`'s identity, capabilities and absinfo.
+
+    `udev` and (with `id_input`) ID_INPUT=1 go into the mocked udev database;
+    without them udev's own input_id builtin classifies the device.
+    """
     dev = f"/dev/input/event{num}"
     name = desc.name.encode()[:255]
     types = _types(desc)
@@ -98,6 +104,7 @@ def evdev_node(desc: DeviceDescription, num: int, out: Path, udev: dict[str, str
     ioctl.write_text("\n".join(lines) + "\n")
     minor = 64 + num
     props = "".join(f"E: {k}={v}\n" for k, v in udev.items())
+    id_line = "E: ID_INPUT=1\n" if id_input else ""
     caps = {
         "ev": _sysfs_mask(types),
         "key": _sysfs_mask(desc.keys),
@@ -108,14 +115,14 @@ def evdev_node(desc: DeviceDescription, num: int, out: Path, udev: dict[str, str
     text = (
         f"P: /devices/virtual/input/input{num}/event{num}\n"
         f"N: input/event{num}\n"
-        f"E: DEVNAME={dev}\nE: ID_INPUT=1\n{props}"
+        f"E: DEVNAME={dev}\n{id_line}{props}"
         f"E: MAJOR=13\nE: MINOR={minor}\nE: SUBSYSTEM=input\n"
         f"A: dev=13:{minor}\n"
         f"L: device=../../input{num}\n\n"
         f"P: /devices/virtual/input/input{num}\n"
         f'E: NAME="{desc.name}"\n'
         f"E: PRODUCT={desc.bustype:x}/{desc.vendor:x}/{desc.product:x}/{desc.version:x}\n"
-        f"E: SUBSYSTEM=input\nE: ID_INPUT=1\n{props}"
+        f"E: SUBSYSTEM=input\n{id_line}{props}"
         f"A: name={desc.name}\n"
         f"A: properties={_sysfs_mask(desc.properties)}\n"
         f"A: id/bustype={desc.bustype:04x}\nA: id/vendor={desc.vendor:04x}\n"
@@ -183,12 +190,15 @@ N: {usb_node}
 E: DEVNAME=/dev/{usb_node}
 E: DEVTYPE=usb_device
 E: DRIVER=usb
+E: MAJOR=189
+E: MINOR={devnum - 1}
 E: PRODUCT={vid:x}/{pid:x}/100
 E: SUBSYSTEM=usb
 E: BUSNUM=001
 E: DEVNUM={devnum:03d}
 A: busnum=1
 A: devnum={devnum}
+A: dev=189:{devnum - 1}
 A: idVendor={vid:04x}
 A: idProduct={pid:04x}
 A: bcdDevice=0100
