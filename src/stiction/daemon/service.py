@@ -117,13 +117,19 @@ class Daemon:
 
     # ------------------------------------------------------------ set-up
     def open(self) -> None:
-        """Bind sockets and open devices; errors here are the user's to fix."""
+        """Bind sockets and open devices; errors here are the user's to fix.
+
+        On any error everything opened so far is closed again: a context left
+        with open sockets would block forever when garbage-collected."""
         try:
-            self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
-            self.control = ControlServer(self.ctx, self.opts.control, self.guard, self)
+            self._open()
         except BaseException:
             self.close()
             raise
+
+    def _open(self) -> None:
+        self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
+        self.control = ControlServer(self.ctx, self.opts.control, self.guard, self)
         configs = self.opts.devices or _auto_devices()
         names: set[str] = set()
         for cfg in configs:
