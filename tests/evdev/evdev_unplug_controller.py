@@ -9,7 +9,9 @@ driver in a subprocess; this script only reports what it printed.
 
 usage: evdev_unplug_controller.py DIR READER_PYTHON READER_SCRIPT UNPLUG_AFTER [crash]
 prints one JSON object: {"reader": [lines...], "returncode": int, "grabs": [EVIOCGRAB args]}
-With `crash`, nothing is unplugged: the reader is expected to die on its own.
+With `crash` or `run`, nothing is unplugged: the reader is expected to end on its own.
+A state.json in DIR answers EVIOCGKEY, EVIOCGMTSLOTS and EVIOCGABS(ABS_MT_SLOT):
+the device state a reader re-reads after SYN_DROPPED.
 """
 
 from __future__ import annotations
@@ -63,6 +65,8 @@ class Handler(UMockdev.IoctlBase):
         self.table = table
         self.unplugged = threading.Event()
         self.grabs: list[int] = []  # EVIOCGRAB arguments in order: 1 grab, 0 release
+        #: the device state answered after SYN_DROPPED: {"keys", "slot", "slots"}
+        self.state: dict | None = None  # type: ignore[type-arg]
 
     def do_handle_ioctl(self, client):  # type: ignore[no-untyped-def]
         if self.unplugged.is_set():
@@ -74,6 +78,35 @@ class Handler(UMockdev.IoctlBase):
             self.grabs.append(int.from_bytes(bytes(arg.data or b"")[:8], "little"))
             client.complete(0, 0)
             return True
+        if self.state is not None and (req >> 8) & 0xFF == ord("E"):
+            nr, size = req & 0xFF, (req >> 16) & 0x3FFF
+            if nr == 0x0A:  # EVIOCGMTSLOTS: {u32 code; s32 values[]}, the code is input
+                data = client.get_arg().resolve(0, size)
+                code = int.from_bytes(bytes(data.data)[:4], "little")
+                values = self.state["slots"].get(str(code))
+                if values is None:
+                    client.complete(-1, errno.EINVAL)
+                    return True
+                n = (size - 4) // 4
+                vals = (values + [0] * n)[:n]
+                payload = code.to_bytes(4, "little") + b"".join(
+                    v.to_bytes(4, "little", signed=True) for v in vals
+                )
+                data.update(0, payload)
+                client.complete(0, 0)
+                return True
+            if nr == 0x18:  # EVIOCGKEY: the keys down at the moment of the re-read
+                mask = bytearray(size)
+                for k in self.state["keys"]:
+                    mask[k // 8] |= 1 << (k % 8)
+                client.get_arg().resolve(0, size).update(0, bytes(mask))
+                client.complete(size, 0)
+                return True
+            if nr == 0x40 + 0x2F:  # EVIOCGABS(ABS_MT_SLOT): the current slot
+                info = self.state["slot"].to_bytes(4, "little") + self.table[req][1][4:]
+                client.get_arg().resolve(0, len(info)).update(0, info)
+                client.complete(0, 0)
+                return True
         hit = self.table.get(req)
         if hit is None:
             client.complete(-1, errno.EINVAL)  # e.g. EVIOCSCLOCKID
@@ -103,6 +136,10 @@ def main() -> int:
     tb = UMockdev.Testbed.new()
     tb.add_from_file(os.path.join(d, "event5.umockdev"))
     handler = Handler(load_table(os.path.join(d, "event5.ioctl")))
+    state_file = os.path.join(d, "state.json")
+    if os.path.exists(state_file):
+        with open(state_file) as f:
+            handler.state = json.load(f)
     tb.attach_ioctl(node, handler)
     env = dict(os.environ, UMOCKDEV_DIR=tb.get_root_dir())
     proc = subprocess.Popen(
@@ -139,7 +176,7 @@ def main() -> int:
     try:
         assert next_line() == "ready", lines
         tb.load_evemu_events(node, os.path.join(d, "event5.events"))
-        if mode == "crash":  # the reader dies by itself; only watch its grabs
+        if mode in ("crash", "run"):  # the reader ends by itself; only watch it
             raise TimeoutError("crash mode") if proc.wait(timeout=30) is None else _Done()
         samples = 0
         while samples < int(unplug_after):

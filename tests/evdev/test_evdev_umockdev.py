@@ -329,3 +329,76 @@ def test_record_a_live_device_and_decode_it_again(
     rec = load(target)
     assert rec.description.name == load(evdev_data / name).description.name
     assert rec.events == load(evdev_data / name).events
+
+
+@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+def test_syn_dropped_on_a_live_device_resyncs_from_the_kernel_state(
+    evdev_data: Path, tmp_path: Path
+) -> None:
+    """SYN_DROPPED mid-frame: the reader re-reads keys, slot and all slots (EVIOCGMTSLOTS).
+
+    The mocked kernel answers with the true state after the damaged frame, so
+    the frame reported after the resync must equal the recording's own frame.
+    """
+    import subprocess
+
+    from evdev import ecodes as e
+
+    name = "cypress-trackpad.two-finger-press.evemu"
+    rec = load(evdev_data / name)
+    expected = _expected_frames(evdev_data / name)
+    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
+    k = next(j for j in range(5, len(syn)) if len(expected[j]["contacts"]) == 2)
+    # the true state after frame k, as the kernel would report it
+    asm = FrameAssembler(rec.description)
+    asm.feed_many(rec.events[: syn[k] + 1])
+    codes = [e.ABS_MT_TRACKING_ID, e.ABS_MT_POSITION_X, e.ABS_MT_POSITION_Y, e.ABS_MT_PRESSURE]
+    fields = ["tid", "x", "y", "pressure"]
+    state = {
+        "keys": sorted(asm._keys),
+        "slot": asm._slot,
+        "slots": {
+            str(c): [getattr(s, f) for s in asm._slots] for c, f in zip(codes, fields, strict=True)
+        },
+    }
+    # the stream loses frame k: SYN_DROPPED after its first event
+    start = syn[k - 1] + 1
+    sec, usec = rec.events[start][:2]
+    rec.events = [
+        *rec.events[: start + 1],
+        (sec, usec, 0, e.SYN_DROPPED, 0),
+        *rec.events[start + 1 :],
+    ]
+    write(rec, tmp_path, num=5)
+    (tmp_path / "state.json").write_text(json.dumps(state))
+    reader = textwrap.dedent(
+        f"""
+        import itertools, json, sys
+        from stiction.drivers.evdev.cli import frame_json
+        from stiction.drivers.evdev.device import DeviceSource
+        src = DeviceSource(sys.argv[1])
+        print("ready", flush=True)
+        for f in itertools.islice(src.frames(), {len(expected)}):
+            print(json.dumps(frame_json(src._units, f)), flush=True)
+        print(json.dumps({{"stats": src.stats()}}), flush=True)
+        src.close()
+        """
+    )
+    controller = Path(__file__).with_name("evdev_unplug_controller.py")
+    argv = [str(controller), str(tmp_path), stiction_cmd()[0], reader, "0", "run"]
+    proc = subprocess.run(
+        ["umockdev-wrapper", "/usr/bin/python3", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert out["returncode"] == 0, out["stderr"]
+    lines = [json.loads(x) for x in out["reader"][1:]]
+    stats = lines.pop()["stats"]
+    assert stats["syn_dropped"] == 1 and stats["resyncs"] == 1
+    assert stats.get("resync_failed_slots", 0) == 0 and stats.get("resync_failed_keys", 0) == 0
+    assert stats["events_discarded"] == syn[k] - start  # all of frame k's events
+    assert lines == expected  # frame k itself comes back from the re-read state
