@@ -46,6 +46,7 @@ ABS_MT_PRESSURE = ecodes.ABS_MT_PRESSURE
 ABS_MT_DISTANCE = ecodes.ABS_MT_DISTANCE
 ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
+_tnew = tuple.__new__  # NamedTuple's own __new__ is a Python function: 5x slower
 MT_TOOL_PALM = 2  # kernel: a palm is not a touch; a finger turning palm has lifted
 ABS_X = ecodes.ABS_X
 ABS_Y = ecodes.ABS_Y
@@ -148,7 +149,8 @@ class FrameAssembler:
 
     def __init__(self, desc: DeviceDescription) -> None:
         self.desc = desc
-        self.stats: Counter[str] = Counter()
+        self._counts: Counter[str] = Counter()  # anomalies; frames are counted apart
+        self._frames = 0
         self.multitouch = desc.is_multitouch
         self.num_slots = desc.num_slots
         self._n_pending = 0  # events of the frame in progress
@@ -186,6 +188,13 @@ class FrameAssembler:
         self._slot_start = (self._slot, self._slot_ok)
         self._seen_start = False
 
+    @property
+    def stats(self) -> Counter[str]:
+        """Frames made and everything counted instead of raised (see the module doc)."""
+        out = Counter(self._counts)
+        out["frames"] = self._frames
+        return out
+
     # -- input ---------------------------------------------------------------
 
     def feed(self, sec: int, usec: int, ev_type: int, code: int, value: int) -> Frame | None:
@@ -207,7 +216,7 @@ class FrameAssembler:
         checks it against a plain buffer-then-apply implementation.
         """
         out: list[Frame] = []
-        stats = self.stats
+        stats = self._counts
         ranges = self._ranges
         abs_ = self._abs
         keys = self._keys
@@ -254,6 +263,8 @@ class FrameAssembler:
                         slot.x = value
                     elif code == ABS_MT_POSITION_Y:
                         slot.y = value
+                    elif code == ABS_MT_PRESSURE:
+                        slot.pressure = value
                     else:
                         self._set_slot_value(slot, code, value)
                         continue
@@ -294,8 +305,8 @@ class FrameAssembler:
                 if code == SYN_REPORT:
                     if n and not mt:
                         self._dirty_all = True
-                    if self._keys_ok is not None:
-                        self._dirty_all = True
+                    if self._keys_ok is not None and not mt:
+                        self._dirty_all = True  # tool, tip and buttons follow the keys
                     out.append(self._commit(sec, usec))
                     n = 0
                     self._end_frame()
@@ -314,8 +325,10 @@ class FrameAssembler:
 
     def _end_frame(self) -> None:
         """The frame is committed: forget how to undo it."""
-        self._undo_abs.clear()
-        self._undo_slots.clear()
+        if self._undo_abs:
+            self._undo_abs.clear()
+        if self._undo_slots:
+            self._undo_slots.clear()
         self._keys_ok = None
         self._slot_start = (self._slot, self._slot_ok)
         self._seen_start = self._seen_position
@@ -365,7 +378,7 @@ class FrameAssembler:
                     self._set_slot_value(current, code, value, resync=True)
         self._dedupe_tracking_ids()
         self._dirty_all = True
-        self.stats["resyncs"] += 1
+        self._counts["resyncs"] += 1
         frame = self._commit(sec, usec)
         self._end_frame()
         return frame
@@ -386,7 +399,7 @@ class FrameAssembler:
         self._seen_position = False
         self._dirty_all = True
         self._end_frame()
-        return Frame(sec, usec, (), ended)
+        return _tnew(Frame, (sec, usec, (), ended))
 
     # -- state ---------------------------------------------------------------
 
@@ -399,17 +412,17 @@ class FrameAssembler:
             if value != slot.tid and not resync:
                 if any(s.tid == value for s in self._slots if s is not slot):
                     # The kernel never gives one id to two slots; keep the first owner.
-                    self.stats["tracking_id_reused"] += 1
+                    self._counts["tracking_id_reused"] += 1
                     slot.tid = -1
                     return
                 if slot.tid >= 0:
                     # New id without a -1 first: the old contact ended in this frame.
-                    self.stats["tracking_id_replaced"] += 1
+                    self._counts["tracking_id_replaced"] += 1
             slot.tid = value
             return
         rng = self._ranges.get(code)
         if rng is not None and (value < rng[0] or value > rng[1]):
-            self.stats["value_out_of_range"] += 1
+            self._counts["value_out_of_range"] += 1
         if code == ABS_MT_POSITION_X:
             slot.x = value
         elif code == ABS_MT_POSITION_Y:
@@ -428,7 +441,7 @@ class FrameAssembler:
         for s in self._slots:
             if s.tid >= 0:
                 if s.tid in seen:
-                    self.stats["tracking_id_reused"] += 1
+                    self._counts["tracking_id_reused"] += 1
                     s.tid = -1
                 seen.add(s.tid)
 
@@ -448,9 +461,6 @@ class FrameAssembler:
         prev = {c.id: c for c in self._last}
         dirty = self._dirty
         all_dirty = self._dirty_all
-        if self._keys_changed:
-            self._button_state = self._buttons()
-            self._keys_changed = False
         buttons = self._button_state
         has_p = self._has_mt_pressure
         for i, s in enumerate(self._slots):
@@ -462,19 +472,22 @@ class FrameAssembler:
                 if c is not None and c.slot == i:
                     out[tid] = c
                     continue
-            out[tid] = Contact(
-                tid,
-                i,
-                tid,
-                Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
-                s.x,
-                s.y,
-                s.pressure if has_p else None,
-                s.distance == 0,
-                True,
-                None,
-                None,
-                buttons,
+            out[tid] = _tnew(
+                Contact,
+                (
+                    tid,
+                    i,
+                    tid,
+                    Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
+                    s.x,
+                    s.y,
+                    s.pressure if has_p else None,
+                    s.distance == 0,
+                    True,
+                    None,
+                    None,
+                    buttons,
+                ),
             )
         return out
 
@@ -501,7 +514,26 @@ class FrameAssembler:
         else:
             tip = pressure is not None and pressure > self._pressure_min
         if self._has_tilt:
-            return Contact(
+            return _tnew(
+                Contact,
+                (
+                    0,
+                    None,
+                    None,
+                    tool,
+                    a[ABS_X],
+                    a[ABS_Y],
+                    pressure,
+                    tip,
+                    True,
+                    a[ABS_TILT_X],
+                    a[ABS_TILT_Y],
+                    self._button_state,
+                ),
+            )
+        return _tnew(
+            Contact,
+            (
                 0,
                 None,
                 None,
@@ -511,45 +543,35 @@ class FrameAssembler:
                 pressure,
                 tip,
                 True,
-                a[ABS_TILT_X],
-                a[ABS_TILT_Y],
+                None,
+                None,
                 self._button_state,
-            )
-        return Contact(
-            0,
-            None,
-            None,
-            tool,
-            a[ABS_X],
-            a[ABS_Y],
-            pressure,
-            tip,
-            True,
-            None,
-            None,
-            self._button_state,
+            ),
         )
 
     def _contact_mt(self, i: int) -> Contact:
         s = self._slots[i]
-        return Contact(
-            s.tid,
-            i,
-            s.tid,
-            Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
-            s.x,
-            s.y,
-            s.pressure if self._has_mt_pressure else None,
-            s.distance == 0,
-            True,
-            None,
-            None,
-            self._button_state,
+        return _tnew(
+            Contact,
+            (
+                s.tid,
+                i,
+                s.tid,
+                Tool.PEN if s.tool_type == MT_TOOL_PEN else Tool.FINGER,
+                s.x,
+                s.y,
+                s.pressure if self._has_mt_pressure else None,
+                s.distance == 0,
+                True,
+                None,
+                None,
+                self._button_state,
+            ),
         )
 
     def _commit(self, sec: int, usec: int) -> Frame:
         self.needs_resync = False
-        self.stats["frames"] += 1
+        self._frames += 1
         last = self._last
         if not self.multitouch:
             prev = last[0] if last else None
@@ -557,11 +579,17 @@ class FrameAssembler:
             self._dirty_all = False
             if cur is None:
                 self._last = ()
-                return Frame(sec, usec, (), (_ended(prev),) if prev is not None else ())
+                return _tnew(Frame, (sec, usec, (), (_ended(prev),) if prev is not None else ()))
             if cur is not prev:
                 self._last = (cur,)
-            return Frame(sec, usec, self._last, ())
+            return _tnew(Frame, (sec, usec, self._last, ()))
         dirty = self._dirty
+        if self._keys_changed:
+            self._keys_changed = False
+            buttons = self._buttons()
+            if buttons != self._button_state:
+                self._button_state = buttons
+                self._dirty_all = True  # every contact carries the buttons
         if self._tid_changed or self._dirty_all:
             # contacts may have begun or ended: rebuild and compare ids
             current = self._current_mt()
@@ -575,14 +603,17 @@ class FrameAssembler:
         else:
             # the common frame: the same contacts, some of them moved
             ended = ()
-            contacts = (
-                tuple(self._contact_mt(c.slot) if c.slot in dirty else c for c in last)  # type: ignore[arg-type]
-                if dirty
-                else last
-            )
+            if not dirty:
+                contacts = last
+            elif len(last) == 1:
+                c0 = last[0]
+                contacts = (self._contact_mt(c0[1]),) if c0[1] in dirty else last
+            else:
+                make = self._contact_mt
+                contacts = tuple([make(c[1]) if c[1] in dirty else c for c in last])
         dirty.clear()
         self._last = contacts
-        return Frame(sec, usec, contacts, ended)
+        return _tnew(Frame, (sec, usec, contacts, ended))
 
 
 def _ended(c: Contact) -> Contact:
