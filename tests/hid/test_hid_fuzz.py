@@ -12,12 +12,14 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from hidtools.hid import ReportDescriptor as HtDescriptor
 from hypothesis import given
 from hypothesis import strategies as st
 
 from stiction.drivers.fake.tablet import UGEE_M708_V2_DESCRIPTOR
 from stiction.drivers.hid.decoder import ReportDecoder, field_values
 from stiction.drivers.hid.descriptor import ReportDescriptor, parse_descriptor
+from stiction.drivers.hid.items import iter_items
 from stiction.drivers.hid.recording import load_recording
 from stiction.drivers.hid.stream import ReportStream
 from stiction.errors import DescriptorError, DeviceError
@@ -114,3 +116,53 @@ def test_any_report_bytes_on_a_real_tablet(reports: list[bytes]) -> None:
     assert stream.stats["reports"] == len(reports)
     skipped = sum(stream.stats[k] for k in ("empty_reports", "short_reports", "unknown_report_id"))
     assert skipped + stream.stats["ignored"] <= len(reports)
+
+
+def _hidtools_comparable(raw: bytes) -> bool:
+    """Descriptors where hid-tools 0.12 is known to differ by its own bugs are left out.
+
+    Push (it loses Unit/Unit Exponent) and a Usage Page wider than 16 bits
+    (it builds usages beyond 32 bits; the kernel truncates, as we do).
+    """
+    for item in iter_items(raw):
+        if item.type == 1 and (item.tag == 0xA or (item.tag == 0x0 and item.udata > 0xFFFF)):
+            return False
+    return True
+
+
+@given(mutated_descriptor())
+def test_differential_against_hidtools_on_mutated_descriptors(raw: bytes) -> None:
+    """Where both parse, the field lists agree, except for documented hid-tools bugs.
+
+    Compared: usage, bit offset and size, count, logical/physical minimum,
+    unit, report sizes. Not compared: a maximum whose minimum is negative
+    (hid-tools reads it unsigned, the kernel and we signed), a unit
+    exponent outside -8..7 (hid-tools misreads one-byte values above 15),
+    the usage hid-tools gives an array (it never closes logical collections).
+    """
+    desc = _parse_or_error(raw)
+    if desc is None or not _hidtools_comparable(raw):
+        return
+    try:
+        ht = HtDescriptor.from_bytes(list(raw))
+    except Exception:  # hid-tools rejects reserved tags the kernel (and we) skip
+        return
+    assert sorted(max(k, 0) for k in ht.input_reports) == sorted(desc.input_reports)
+    for key, ht_report in ht.input_reports.items():
+        report = desc.input_reports[max(key, 0)]
+        assert report.bit_size == ht_report.bitsize
+        ht_fields = list(ht_report)
+        assert len(report.fields) == len(ht_fields)
+        for f, h in zip(report.fields, ht_fields, strict=True):
+            assert (f.bit_offset, f.bit_size, f.count) == (h.start, h.size, h.count)
+            assert (f.logical_min, f.physical_min, f.unit) == (
+                h.logical_min,
+                h.physical_min,
+                h.unit,
+            )
+            if not f.array:
+                assert f.usage == h.usage
+            if f.logical_min >= 0:
+                assert f.logical_max == h.logical_max
+            if -8 <= f.unit_exponent <= 7:
+                assert f.unit_exponent == h.unit_exp

@@ -39,7 +39,6 @@ def test_minimal_pen_is_valid() -> None:
         (b"\xfe\x05\x01\x00", "long item"),
         (b"\xc0", "unbalanced"),
         (b"\x05\x01\x09\x02\xa1\x01", "never closed"),
-        (b"\x75\x00", "Report Size 0"),
         (b"\x76\x01\x01", "Report Size 257"),
         (b"\x96\x01\x40", "Report Count 16385"),
         (b"\x85\x00", "Report ID 0"),

@@ -90,6 +90,10 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
     while i < n:
         e = elements[i]
         start, shift = divmod(e.bit_offset, 8)
+        if e.bit_size == 0:
+            parts.append("(0,)")  # a zero-bit field (Report Size 0) reads as 0
+            i += 1
+            continue
         if shift + e.bit_size <= 8 and e.bit_size < 8:
             j = i + 1
             while (
@@ -185,6 +189,8 @@ class ReportDecoder:
         for i, e in enumerate(self.elements):
             start, shift = divmod(e.bit_offset, 8)
             code = _STRUCT_CODES.get((e.bit_size, e.signed))
+            if e.bit_size == 0:
+                continue  # reads as 0: the output column is zeroed
             if shift == 0 and code is not None:
                 aligned.append((i, "<" + code, start))
             elif shift + e.bit_size <= 8 and not e.signed:
@@ -302,7 +308,7 @@ class ReportDecoder:
             stride = max(length, need)
             buf = np.zeros((n, stride), dtype=np.uint8)
             buf[:, :length] = reports
-        out = np.empty((n, len(self.elements)), dtype=np.int64, order="F")
+        out = np.zeros((n, len(self.elements)), dtype=np.int64, order="F")
         if self._aligned:
             rows = buf.view(np.uint8).reshape(n * stride).view(self._dtype(stride))
             for i, _, _ in self._aligned:

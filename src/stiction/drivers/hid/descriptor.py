@@ -245,10 +245,10 @@ class _Parser:
         elif tag == 0x6:
             g.unit = item.udata
         elif tag == 0x7:
-            if not 0 < item.udata <= MAX_REPORT_SIZE_BITS:
+            if item.udata > MAX_REPORT_SIZE_BITS:
                 raise DescriptorError(
-                    f"Report Size {item.udata} at byte {item.offset} is outside "
-                    f"1..{MAX_REPORT_SIZE_BITS} bits"
+                    f"Report Size {item.udata} at byte {item.offset} is above "
+                    f"{MAX_REPORT_SIZE_BITS} bits"
                 )
             g.report_size = item.udata
         elif tag == 0x8:
@@ -357,9 +357,9 @@ class _Parser:
             reports[rid] = report
         if rid == 0:
             self.saw_unnumbered_main = True
+        # Zero-size or zero-count items are kept as hid-tools keeps them (they
+        # decode to nothing useful, but the field list stays comparable).
         size, count = g.report_size, g.report_count
-        if count == 0 or size == 0:
-            return
         start = report.bit_size
         report.bit_size += size * count
         if report.bit_size > 8 * MAX_REPORT_BYTES:
@@ -369,7 +369,10 @@ class _Parser:
             )
         flags = item.udata
         usages, umin, umax = self._resolved_usages()
-        have_range = self.loc.have_min and self.loc.have_max and umax >= umin
+        # As in hid-tools: a range needs non-zero ends (a lone Usage Maximum
+        # whose page differs from the current one gets a minimum of page:0);
+        # a reversed range gives every element the minimum, an array no usages.
+        have_range = umin != 0 and umax != 0
         logical = next((u for t, u, _ in reversed(self.collections) if t == LOGICAL), 0)
         physical = next((u for t, u, _ in reversed(self.collections) if t == PHYSICAL), 0)
         instance = self.collections[-1][2] if self.collections else 0
@@ -399,16 +402,19 @@ class _Parser:
         new: list[Field] = []
         if flags & (CONSTANT | VARIABLE):
             if have_range:
+                usage = umin  # counts up to the maximum, then repeats it
                 for i in range(count):
-                    new.append(
-                        replace(base, usage=min(umin + i, umax), bit_offset=start + i * size)
-                    )
+                    new.append(replace(base, usage=usage, bit_offset=start + i * size))
+                    if usage < umax:
+                        usage += 1
             elif usages:
                 for i in range(count):
                     u = usages[i] if i < len(usages) else usages[-1]
                     new.append(replace(base, usage=u, bit_offset=start + i * size))
             else:
-                new.append(replace(base, bit_size=size * count))
+                # padding: one field; a lone Usage Minimum still names it (hid-tools does)
+                usage = umin if self.loc.have_min else 0
+                new.append(replace(base, usage=usage, bit_size=size * count))
         else:
             arr_usages = tuple(range(umin, umax + 1)) if have_range else tuple(usages)
             usage = logical or self.application
