@@ -55,6 +55,12 @@ class SurfaceUnits:
         self.y_axis = ay or AbsAxis(0, 0, 0)
         rx, ry = self.x_axis.resolution, self.y_axis.resolution
         self.resolution_known = rx > 0 and ry > 0
+        self._bounds = (
+            self.x_axis.minimum,
+            self.x_axis.maximum,
+            self.y_axis.minimum,
+            self.y_axis.maximum,
+        )
         # Divided, not multiplied by a reciprocal: x_m = (x - min) / res / 1000 exactly as
         # architecture.md writes it, so every implementation agrees to the last bit.
         self._rx = rx if rx > 0 else 1.0
@@ -94,22 +100,29 @@ class SurfaceUnits:
         maps a touch off the surface; the assembler counts them as
         `value_out_of_range`. `decode` shows the unclamped values.
         """
+        cid, _slot, _tid, tool, x, y, p, tip, in_range, tlx, tly, buttons = c
+        x0, x1, y0, y1 = self._bounds
+        if not x0 <= x <= x1:
+            x = x0 if x < x0 else x1
+        if not y0 <= y <= y1:
+            y = y0 if y < y0 else y1
+        pressure: float | None = None
+        if p is not None and self._pressure is not None:
+            pressure = (p - self._pressure.offset) * self._pressure.scale
+            pressure = 0.0 if pressure < 0.0 else 1.0 if pressure > 1.0 else pressure
         tx, ty = self._tilt_x, self._tilt_y
-        xa, ya = self.x_axis, self.y_axis
-        x = c.x if xa.minimum <= c.x <= xa.maximum else max(xa.minimum, min(c.x, xa.maximum))
-        y = c.y if ya.minimum <= c.y <= ya.maximum else max(ya.minimum, min(c.y, ya.maximum))
         return PenSample(
-            t=t,
-            x=(x - xa.minimum) / self._rx / 1000,
-            y=(y - ya.minimum) / self._ry / 1000,
-            tip=c.tip,
-            in_range=c.in_range,
-            contact=c.id,
-            pressure=self.pressure(c.pressure),
-            tool=c.tool,
-            tilt_x=tx(c.tilt_x) if tx is not None and c.tilt_x is not None else None,
-            tilt_y=ty(c.tilt_y) if ty is not None and c.tilt_y is not None else None,
-            buttons=c.buttons,
+            t,
+            (x - x0) / self._rx / 1000,
+            (y - y0) / self._ry / 1000,
+            tip,
+            in_range,
+            cid,
+            pressure,
+            tool,
+            (tlx - tx.offset) * tx.scale if tx is not None and tlx is not None else None,
+            (tly - ty.offset) * ty.scale if ty is not None and tly is not None else None,
+            buttons,
         )
 
     def contact_json(self, c: Contact) -> dict[str, object]:
