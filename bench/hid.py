@@ -147,7 +147,7 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
 
     names = [r["recording"] for r in rows]
     x = range(len(rows))
-    fig, ax = plt.subplots(figsize=(9, 4.5))
+    fig, ax = plt.subplots(figsize=(9, 5))
     ax.bar(
         [i - 0.27 for i in x],
         [r["hidtools_us_per_report"] for r in rows],
@@ -166,8 +166,8 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
     ax.set_xticks(list(x))
     ax.set_xticklabels(names, rotation=30, ha="right", fontsize=8)
     ax.set_title("Decoding real HID reports (bench/hid.py)")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
+    fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
+    fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
