@@ -1,14 +1,18 @@
 """The control endpoint: one REP socket, answered between ticks.
 
-Requests are served from the loop thread in the idle part of each period,
-so a request sees a consistent state and never races the tick. Every request
-gets exactly one reply (the REP rule); anything malformed gets an error reply
-and is counted, and the daemon carries on.
+A small thread owns the REP socket and blocks on it, so an idle daemon
+spends no wake-ups on control. Each request is handed to the loop through a
+queue and answered there at the next tick boundary (`serve_pending`), so a
+request sees a consistent state and never races the tick. Every request gets
+exactly one reply (the REP rule); anything malformed gets an error reply and
+is counted, and the daemon carries on.
 """
 
 from __future__ import annotations
 
 import logging
+import queue
+import threading
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -36,21 +40,39 @@ class ControlServer:
             raise
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
         self.daemon = daemon
-        self.poller = zmq.Poller()
-        self.poller.register(self.sock, zmq.POLLIN)
         self.requests = 0
         self.errors = 0
+        self._inbox: queue.SimpleQueue[_Pending] = queue.SimpleQueue()
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, name="control", daemon=True)
+        self._thread.start()
 
-    def serve(self, timeout_s: float) -> None:
-        """Answer the requests waiting now, waiting at most `timeout_s` for the first."""
-        events = self.poller.poll(max(0, int(timeout_s * 1000)))
-        while events:
-            try:
-                payload = self.sock.recv(zmq.DONTWAIT)
-            except zmq.Again:
-                return
-            self.sock.send(self.handle(payload))
-            events = self.poller.poll(0)
+    def _run(self) -> None:
+        sock = self.sock
+        try:
+            while not self._stop.is_set():
+                if not sock.poll(250):
+                    continue
+                payload = sock.recv()
+                pending = _Pending(payload)
+                self._inbox.put(pending)
+                while not pending.done.wait(0.25):
+                    if self._stop.is_set():
+                        sock.send(protocol.error_reply("stictiond is stopping"))
+                        return
+                sock.send(pending.reply)
+        except zmq.ContextTerminated:
+            pass
+        finally:
+            sock.close(linger=0)
+
+    def serve_pending(self) -> None:
+        """Answer every request that has arrived (loop thread only)."""
+        inbox = self._inbox
+        while not inbox.empty():
+            pending = inbox.get_nowait()
+            pending.reply = self.handle(pending.payload)
+            pending.done.set()
 
     def handle(self, payload: bytes) -> bytes:
         self.requests += 1
@@ -107,7 +129,17 @@ class ControlServer:
         raise ProtocolError(f"op {op!r} is not served")
 
     def close(self) -> None:
-        self.sock.close(linger=0)
+        self._stop.set()
+        self._thread.join(timeout=2.0)
+
+
+class _Pending:
+    __slots__ = ("done", "payload", "reply")
+
+    def __init__(self, payload: bytes) -> None:
+        self.payload = payload
+        self.reply = b""
+        self.done = threading.Event()
 
 
 def _only(args: dict[str, Any], allowed: set[str], op: str) -> None:

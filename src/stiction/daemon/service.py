@@ -50,10 +50,6 @@ log = logging.getLogger("stiction.daemon")
 Opener = Callable[[Spec, DeviceConfig, bool, bool], SampleSource]
 """open_source's signature: spec, its config, realtime, loop."""
 
-CONTROL_MARGIN_S = 0.0015
-"""Stop waiting for control requests this long before a deadline and sleep the rest,
-so control traffic never delays a tick."""
-
 
 @dataclass
 class Options:
@@ -76,6 +72,8 @@ class Options:
     hotplug: bool = True
     config_path: Path | None = None
     scene_from_flag: bool = False
+    stats_window: int = 10_000
+    """Ticks kept for the jitter/latency percentiles of the stats reply."""
 
 
 class Daemon:
@@ -104,9 +102,9 @@ class Daemon:
         self.schedule = Schedule(opts.rate, 0.0, _ms(opts.late_threshold_ms))
         self.last_tick = -1
         self.last_frames: dict[str, dict[str, Any]] = {}
-        self.jitter = Window()
-        self.latency = Window()
-        self.cost = Window()
+        self.jitter = Window(opts.stats_window)
+        self.latency = Window(opts.stats_window)
+        self.cost = Window(opts.stats_window)
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
         self._stop = threading.Event()
         self._reload = threading.Event()
@@ -306,17 +304,9 @@ class Daemon:
         return 0
 
     def _wait(self, deadline: float) -> None:
-        control = self.control
-        if self.virtual:
-            if control is not None:
-                control.serve(0)
-            self.clock.sleep_until(deadline)
-            return
-        while control is not None:
-            remaining = deadline - time.monotonic() - CONTROL_MARGIN_S
-            if remaining < 0.0005:
-                break
-            control.serve(remaining)
+        """Answer waiting control requests, then sleep to the deadline."""
+        if self.control is not None:
+            self.control.serve_pending()
         self.clock.sleep_until(deadline)
 
     def _tick(self, t: float, prev_t: float) -> None:

@@ -1,0 +1,375 @@
+"""The daemon's timing against the simplest loop that could do the job.
+
+Run as ``stiction bench daemon [--json] [--seconds S]``. Four phases in one
+run, each with 10 subscriber processes (``--subscribers``):
+
+1. bare loop: a Python loop sleeping to the same absolute 100 Hz deadlines,
+   doing nothing else (the floor for tick jitter);
+2. bare loop + raw pyzmq: the same loop publishing one msgpack message with
+   the deadline in it on a plain PUB socket (the floor for deadline-to-
+   subscriber latency);
+3. stictiond: the real daemon (stiction.daemon.service.Daemon, in this
+   process) reading a device -- by default ``synthetic:demo``, scripted
+   reports decoded by the real HID decoder, looping -- running the default
+   scene (stick-slip + string) and publishing to the same subscribers;
+4. stictiond idle: the daemon with a device that sends nothing (CPU only),
+   with the 10 subscribers and again with none.
+
+Prints tick jitter (start - deadline) p50/p99/max, late ticks (> half a
+period), deadline-to-subscriber latency p50/p99/max (subscriber receipt
+time minus the frame's deadline, both CLOCK_MONOTONIC), and CPU use of the
+publishing process (subscribers excluded), with the ratios and differences
+the targets are stated in. Writes bench/results/daemon.{json,txt,png}
+(``daemon-<S>s.*`` for other durations).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+RESULTS = Path(__file__).resolve().parent / "results"
+DEFAULT_SECONDS = 20.0
+
+
+SUBSCRIBER = r"""
+import sys, time
+import msgpack, numpy as np, zmq
+endpoint, out = sys.argv[1], sys.argv[2]
+ctx = zmq.Context()
+sub = ctx.socket(zmq.SUB)
+sub.rcvhwm = 0
+sub.setsockopt(zmq.SUBSCRIBE, b"")
+sub.connect(endpoint)
+poller = zmq.Poller()
+poller.register(sub, zmq.POLLIN)
+poller.register(sys.stdin.fileno(), zmq.POLLIN)
+print("ready", flush=True)
+got = []
+running = True
+while running:
+    for sock, _ in poller.poll(1000):
+        if sock == sys.stdin.fileno():
+            running = False
+            continue
+        while True:
+            try:
+                _, payload = sub.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                break
+            now = time.monotonic()
+            msg = msgpack.unpackb(payload)
+            if msg.get("kind") in ("frame", "bare"):
+                got.append((msg["t"], now - msg["t"]))
+np.save(out, np.array(got, dtype=np.float64).reshape(-1, 2))
+sub.close(0)
+ctx.term()
+"""
+
+
+class Subscribers:
+    """N subscriber processes (separate interpreters, like real renderers)."""
+
+    def __init__(self, endpoint: str, n: int, tmp: str) -> None:
+        self.files = [f"{tmp}/sub{i}-{time.monotonic_ns()}.npy" for i in range(n)]
+        self.procs = [
+            subprocess.Popen(
+                [sys.executable, "-c", SUBSCRIBER, endpoint, f],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                text=True,
+            )
+            for f in self.files
+        ]
+        for p in self.procs:
+            assert p.stdout is not None
+            if p.stdout.readline().strip() != "ready":
+                raise RuntimeError("a subscriber process failed to start")
+
+    def finish(self) -> list[tuple[float, float]]:
+        for p in self.procs:
+            assert p.stdin is not None
+            p.stdin.write("stop\n")
+            p.stdin.close()
+        got: list[tuple[float, float]] = []
+        for p, f in zip(self.procs, self.files, strict=True):
+            p.wait(120)
+            got.extend((float(a), float(b)) for a, b in np.load(f))
+        return got
+
+
+def _summary(values: np.ndarray) -> dict[str, float | None]:
+    if len(values) == 0:
+        return {"p50": None, "p99": None, "max": None, "n": 0}
+    p50, p99 = np.percentile(values, [50, 99])
+    return {"p50": float(p50), "p99": float(p99), "max": float(values.max()), "n": len(values)}
+
+
+def _latency(samples: list[tuple[float, float]], start: float) -> dict[str, float | None]:
+    lat = np.array([lat for t, lat in samples if t >= start], dtype=np.float64)
+    return _summary(lat * 1e3)
+
+
+def bare_loop(
+    seconds: float, rate: float, sock: Any = None
+) -> tuple[np.ndarray, int, float, float]:
+    """Sleep to absolute deadlines; optionally publish one message per tick."""
+    import msgpack
+
+    n_ticks = round(seconds * rate)
+    jitter = np.empty(n_ticks)
+    late = 0
+    threshold = 0.5 / rate
+    start = time.monotonic() + 0.05
+    cpu0 = time.process_time()
+    for n in range(n_ticks):
+        deadline = start + n / rate
+        remaining = deadline - time.monotonic()
+        if remaining > 0:
+            time.sleep(remaining)
+        woke = time.monotonic()
+        jitter[n] = woke - deadline
+        if woke - deadline > threshold:
+            late += 1
+        if sock is not None:
+            msg = {"v": 1, "kind": "bare", "tick": n, "t": deadline, "device": "bare",
+                   "contacts": [{"id": 0, "phase": "slip", "touch_m": [0.1, 0.1],
+                                 "pointer_m": [0.1, 0.1], "touch_px": [1.0, 1.0],
+                                 "pointer_px": [1.0, 1.0], "tension": 0.0, "material": "m",
+                                 "string": {"length_px": 0.0, "dir": [0.0, 0.0]}}]}  # fmt: skip
+            sock.send_multipart((b"frame.bare", msgpack.packb(msg)))
+    cpu = time.process_time() - cpu0
+    wall = time.monotonic() - start
+    return jitter, late, cpu / wall * 100, start
+
+
+class _Idle:
+    """A device that is present and silent: the daemon's idle cost."""
+
+    def __init__(self) -> None:
+        self._closed = threading.Event()
+
+    name = "idle-pen"
+    surface_size = (0.2, 0.15)
+    kind = "pen"
+
+    def samples(self) -> Iterator[Any]:
+        self._closed.wait()
+        return iter(())
+
+    def close(self) -> None:
+        self._closed.set()
+
+    def stats(self) -> dict[str, int]:
+        return {}
+
+
+def run_daemon(
+    seconds: float, rate: float, pub: str, ctl: str, spec: str | None
+) -> tuple[dict[str, Any], float, float, np.ndarray]:
+    from stiction.daemon.devices import DeviceConfig
+    from stiction.daemon.service import Daemon, Options
+
+    opts = Options(
+        pub=pub,
+        control=ctl,
+        rate=rate,
+        seconds=seconds,
+        hotplug=False,
+        devices=[DeviceConfig(spec or "idle")],
+        stats_window=round(seconds * rate) + 100,
+    )
+    daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
+    daemon.open()
+    cpu0 = time.process_time()
+    wall0 = time.monotonic()
+    try:
+        daemon.run()
+        cpu = (time.process_time() - cpu0) / (time.monotonic() - wall0) * 100
+        stats = daemon.stats()
+        jitter = daemon.jitter.values().copy()
+        start = daemon.schedule.start
+    finally:
+        daemon.close()
+    return stats, cpu, start, jitter
+
+
+def main(argv: list[str]) -> int:
+    ap = argparse.ArgumentParser(prog="stiction bench daemon", description=__doc__)
+    ap.add_argument("--seconds", type=float, default=DEFAULT_SECONDS, help="daemon run (s)")
+    ap.add_argument("--baseline-seconds", type=float, help="each baseline run (default: --seconds)")
+    ap.add_argument("--idle-seconds", type=float, help="idle run (default: min(10, --seconds))")
+    ap.add_argument("--subscribers", type=int, default=10)
+    ap.add_argument("--rate", type=float, default=100.0)
+    ap.add_argument("--device", default="synthetic:demo", help="device spec for the daemon")
+    ap.add_argument("--json", action="store_true")
+    args = ap.parse_args(argv)
+    import zmq
+
+    base_s = args.baseline_seconds or args.seconds
+    idle_s = args.idle_seconds or min(10.0, args.seconds)
+    tmp = tempfile.mkdtemp(prefix="stiction-bench-")
+    res: dict[str, Any] = {
+        "seconds": args.seconds,
+        "baseline_seconds": base_s,
+        "idle_seconds": idle_s,
+        "rate": args.rate,
+        "subscribers": args.subscribers,
+        "device": args.device,
+        "cpus": os.cpu_count(),
+        "python": sys.version.split()[0],
+        "pyzmq": zmq.__version__,
+        "libzmq": zmq.zmq_version(),
+    }
+
+    print(f"bare loop, {base_s:g} s ...", file=sys.stderr)
+    jit, late, cpu, _ = bare_loop(base_s, args.rate)
+    res["bare"] = {"jitter_ms": _summary(jit * 1e3), "late": late, "cpu_pct": cpu}
+
+    print(f"bare loop + raw pyzmq PUB, {base_s:g} s ...", file=sys.stderr)
+    endpoint = f"ipc://{tmp}/raw"
+    subs = Subscribers(endpoint, args.subscribers, tmp)
+    ctx = zmq.Context()
+    sock = ctx.socket(zmq.PUB)
+    sock.sndhwm = 1000
+    sock.bind(endpoint)
+    jit, late, cpu, start = bare_loop(base_s, args.rate, sock)
+    got = subs.finish()
+    sock.close(0)
+    ctx.term()
+    res["raw"] = {
+        "jitter_ms": _summary(jit * 1e3),
+        "late": late,
+        "cpu_pct": cpu,
+        "latency_ms": _latency(got, start + 0.5),
+    }
+
+    print(f"stictiond with {args.device}, {args.seconds:g} s ...", file=sys.stderr)
+    pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
+    subs = Subscribers(pub, args.subscribers, tmp)
+    stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
+    got = subs.finish()
+    res["daemon"] = {
+        "jitter_ms": _summary(jit * 1e3),
+        "late": stats["late_ticks"],
+        "skipped": stats["skipped_deadlines"],
+        "ticks": stats["ticks"],
+        "cpu_pct": cpu,
+        "latency_ms": _latency(got, start + 0.5),
+        "input_to_publish_ms": stats["latency_ms"],
+        "tick_cost_ms": stats["tick_cost_ms"],
+        "device": next(iter(stats["devices"].values())),
+    }
+
+    print(f"stictiond idle, {idle_s:g} s ...", file=sys.stderr)
+    pub, ctl = f"ipc://{tmp}/pub2", f"ipc://{tmp}/ctl2"
+    subs = Subscribers(pub, args.subscribers, tmp)
+    stats, cpu, _, jit = run_daemon(idle_s, args.rate, pub, ctl, None)
+    subs.finish()
+    res["idle"] = {"cpu_pct": cpu, "late": stats["late_ticks"], "jitter_ms": _summary(jit * 1e3)}
+    print(f"stictiond idle without subscribers, {idle_s:g} s ...", file=sys.stderr)
+    _, cpu, _, _ = run_daemon(idle_s, args.rate, f"ipc://{tmp}/pub3", f"ipc://{tmp}/ctl3", None)
+    res["idle"]["cpu_pct_no_subscribers"] = cpu
+
+    b, r, d = res["bare"], res["raw"], res["daemon"]
+    res["targets"] = {
+        "no_late_tick": d["late"] == 0,
+        "jitter_p99_ratio_vs_bare": d["jitter_ms"]["p99"] / b["jitter_ms"]["p99"],
+        "jitter_p99_within_1.2x": d["jitter_ms"]["p99"] <= 1.2 * b["jitter_ms"]["p99"],
+        "latency_p99_minus_raw_ms": d["latency_ms"]["p99"] - r["latency_ms"]["p99"],
+        "latency_p99_within_0.3ms": d["latency_ms"]["p99"] <= r["latency_ms"]["p99"] + 0.3,
+        "idle_cpu_below_2pct": res["idle"]["cpu_pct"] < 2.0,
+    }
+    table = _table(res)
+    stem = "daemon" if args.seconds == DEFAULT_SECONDS else f"daemon-{args.seconds:g}s"
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / f"{stem}.txt").write_text(table + "\n")
+    (RESULTS / f"{stem}.json").write_text(json.dumps(res, indent=2))
+    _plot(res, RESULTS / f"{stem}.png")
+    print(json.dumps(res, indent=2) if args.json else table)
+    return 0
+
+
+def _f(v: float | None, spec: str = ".3f") -> str:
+    return "-" if v is None else format(v, spec)
+
+
+def _table(res: dict[str, Any]) -> str:
+    b, r, d, i, t = res["bare"], res["raw"], res["daemon"], res["idle"], res["targets"]
+    lines = [
+        f"stictiond timing at {res['rate']:g} Hz, {res['subscribers']} subscriber processes, "
+        f"daemon {res['seconds']:g} s, baselines {res['baseline_seconds']:g} s each, "
+        f"{res['cpus']} CPUs (shared machine)",
+        f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
+    ]
+
+    def row(name: str, key: str, sub: str, fmt: str = ".3f") -> None:
+        vals = [
+            x.get(key, {}).get(sub) if isinstance(x.get(key), dict) else None for x in (b, r, d)
+        ]
+        lines.append(f"{name:<34}" + "".join(f"{_f(v, fmt):>12}" for v in vals))
+
+    for sub in ("p50", "p99", "max"):
+        row(f"tick jitter {sub} (ms)", "jitter_ms", sub)
+    lines.append(
+        f"{'late ticks (> half a period)':<34}{b['late']:>12}{r['late']:>12}{d['late']:>12}"
+    )
+    for sub in ("p50", "p99", "max"):
+        row(f"deadline->subscriber {sub} (ms)", "latency_ms", sub)
+    lines.append(
+        f"{'CPU, % of one core':<34}{b['cpu_pct']:>12.2f}{r['cpu_pct']:>12.2f}{d['cpu_pct']:>12.2f}"
+    )
+    lines.append(f"{'stictiond idle CPU, % of one core':<34}{'':>24}{i['cpu_pct']:>12.2f}")
+    lines.append(
+        f"{'stictiond idle, no subscribers, %':<34}{'':>24}{i['cpu_pct_no_subscribers']:>12.2f}"
+    )
+    ip = d["input_to_publish_ms"]
+    lines.append(
+        f"{'input->publish p50/p99 (ms)':<34}{'':>24}"
+        f"{_f(ip['p50'], '.2f') + '/' + _f(ip['p99'], '.2f'):>12}"
+    )
+    lines.append("targets:")
+    lines.append(f"  late ticks = 0 ............................ {d['late']} -> "
+                 f"{'met' if t['no_late_tick'] else 'NOT met'}")  # fmt: skip
+    lines.append(f"  jitter p99 <= 1.2 x bare loop's ........... "
+                 f"{t['jitter_p99_ratio_vs_bare']:.2f}x -> "
+                 f"{'met' if t['jitter_p99_within_1.2x'] else 'NOT met'}")  # fmt: skip
+    lines.append(f"  latency p99 <= bare+pyzmq p99 + 0.3 ms .... "
+                 f"{t['latency_p99_minus_raw_ms']:+.3f} ms -> "
+                 f"{'met' if t['latency_p99_within_0.3ms'] else 'NOT met'}")  # fmt: skip
+    lines.append(f"  idle CPU < 2% of a core (10 subscribers) .. {i['cpu_pct']:.2f}% -> "
+                 f"{'met' if t['idle_cpu_below_2pct'] else 'NOT met'}")  # fmt: skip
+    return "\n".join(lines)
+
+
+def _plot(res: dict[str, Any], path: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, ax = plt.subplots(figsize=(7, 4))
+    names = ["bare loop", "bare+pyzmq", "stictiond"]
+    keys = ["bare", "raw", "daemon"]
+    x = np.arange(3)
+    for off, sub in ((-0.2, "p50"), (0.0, "p99"), (0.2, "max")):
+        ax.bar(x + off, [res[k]["jitter_ms"][sub] for k in keys], width=0.2, label=f"jitter {sub}")
+    ax.set_xticks(x, names)
+    ax.set_yscale("log")
+    ax.set_ylabel("tick start - deadline (ms)")
+    ax.set_title(f"tick jitter at {res['rate']:g} Hz ({res['seconds']:g} s, shared machine)")
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
