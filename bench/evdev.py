@@ -3,16 +3,23 @@
     stiction bench evdev [--json] [--repeat N]
 
 Every event of every recording in shared/data/evdev is turned into frames
-(one snapshot of all contacts per SYN_REPORT) three ways, from the same
-pre-built `evdev.InputEvent` objects a live reader gets from `read()`:
+(one snapshot of all contacts per SYN_REPORT), starting from what python-
+evdev's C reader returns for a read() of the device: (sec, usec, type, code,
+value) tuples.
 
-- naive: what one writes with python-evdev's own helpers: `evdev.categorize()`
-  per event, then dict bookkeeping keyed by the code names (`ecodes.ABS`,
-  `KeyEvent.keycode`), and a list of contact dicts at each SYN_REPORT;
-- stiction: `FrameAssembler.feed()` per event (the live reader's path), which
-  also buffers frames for SYN_DROPPED, checks ranges and ends contacts;
-- stiction, samples: the same plus conversion of each contact to a PenSample
-  in surface metres (what the daemon receives).
+- naive: python-evdev's own path: `read()` wraps each tuple in an
+  `InputEvent`, then `evdev.categorize()` per event, dict bookkeeping keyed
+  by the code names (`ecodes.ABS`, `KeyEvent.keycode`), and a list of
+  contact dicts at each SYN_REPORT;
+- stiction: `FrameAssembler.feed_many()` on the tuples (the live reader's
+  path), which also keeps undo state for SYN_DROPPED, checks ranges, drops
+  palms and ends contacts;
+- stiction, samples: the same plus a PenSample in surface metres per
+  contact (what the daemon receives).
+
+For transparency the same comparison is also made from ready-made
+InputEvent objects (both paths then skip the wrapping; stiction unpacks
+them into tuples): the "objects" ratio.
 
 Times are the minimum over repeats (the machine is shared; the minimum is the
 least disturbed run); the median is kept in the JSON. Both paths are checked
@@ -27,7 +34,7 @@ import json
 import platform
 import statistics
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
@@ -55,7 +62,7 @@ def _times(fn: Callable[[], object], repeat: int) -> list[float]:
     return out
 
 
-def naive_frames(events: list[Any]) -> list[list[dict[str, Any]]]:
+def naive_frames(events: Iterable[Any]) -> list[list[dict[str, Any]]]:
     """The straightforward python-evdev way: categorize(), names, dicts."""
     import evdev
     from evdev import ecodes
@@ -107,11 +114,15 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
 
     rec = load(path)
     desc = sizes.apply(rec.description, (100.0, 60.0) if "synaptics" in path.name else None)
-    events = [evdev.InputEvent(s, u, t, c, v) for s, u, t, c, v in rec.events]
+    raw = list(rec.events)  # what evdev._input.device_read_many returns
+    events = [evdev.InputEvent(s, u, t, c, v) for s, u, t, c, v in raw]
     units = SurfaceUnits(desc)
 
     def ours() -> list[Any]:
         # exactly what DeviceSource does with each read() batch
+        return FrameAssembler(desc).feed_many(raw)
+
+    def ours_objects() -> list[Any]:
         asm = FrameAssembler(desc)
         return asm.feed_many([(e.sec, e.usec, e.type, e.code, e.value) for e in events])
 
@@ -119,7 +130,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         asm = FrameAssembler(desc)
         sample = units.sample
         n = 0
-        for f in asm.feed_many([(e.sec, e.usec, e.type, e.code, e.value) for e in events]):
+        for f in asm.feed_many(raw):
             t = f.time
             for c in f.contacts:
                 sample(c, t)
@@ -127,6 +138,9 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         return n
 
     def naive() -> list[Any]:
+        return naive_frames(evdev.InputEvent(*t) for t in raw)  # as read() yields them
+
+    def naive_objects() -> list[Any]:
         return naive_frames(events)
 
     a, b = ours(), naive()
@@ -143,7 +157,13 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
 
     # Interleaved: each repeat times every path once, so a burst of load from
     # other processes hits all of them alike.
-    paths = {"naive": many(naive), "stiction": many(ours), "samples": many(ours_samples)}
+    paths = {
+        "naive": many(naive),
+        "stiction": many(ours),
+        "samples": many(ours_samples),
+        "naive_objects": many(naive_objects),
+        "stiction_objects": many(ours_objects),
+    }
     ts: dict[str, list[float]] = {k: [] for k in paths}
     for _ in range(repeat):
         for label, fn in paths.items():
@@ -160,19 +180,21 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
 
 def _table(rows: list[dict[str, Any]], pooled: dict[str, Any]) -> str:
     head = (
-        f"{'recording':32} {'events':>6} {'frames':>6} {'naive us/fr':>11} "
-        f"{'stiction us/fr':>14} {'ratio':>6} {'+samples us/fr':>14} {'stiction Mev/s':>14}"
+        f"{'recording':30} {'events':>6} {'frames':>6} {'naive us/fr':>11} "
+        f"{'stiction us/fr':>14} {'ratio':>6} {'objects':>7} {'+samples us/fr':>14} "
+        f"{'Mev/s':>6}"
     )
     lines = [head, "-" * len(head)]
     for r in [*rows, pooled]:
         s = r["seconds"]
         fr = r["frames"]
         lines.append(
-            f"{r['recording']:32} {r['events']:>6} {fr:>6} "
+            f"{r['recording']:30} {r['events']:>6} {fr:>6} "
             f"{s['naive']['min'] / fr * 1e6:>11.2f} {s['stiction']['min'] / fr * 1e6:>14.2f} "
             f"{s['naive']['min'] / s['stiction']['min']:>5.1f}x "
+            f"{s['naive_objects']['min'] / s['stiction_objects']['min']:>6.1f}x "
             f"{s['samples']['min'] / fr * 1e6:>14.2f} "
-            f"{r['events'] / s['stiction']['min'] / 1e6:>14.2f}"
+            f"{r['events'] / s['stiction']['min'] / 1e6:>6.2f}"
         )
     return "\n".join(lines)
 
@@ -210,7 +232,7 @@ def main(argv: list[str]) -> int:
     total_frames = sum(r["frames"] for r in rows)
     pooled_s = {
         k: {m: sum(r["seconds"][k][m] for r in rows) for m in ("min", "median")}
-        for k in ("naive", "stiction", "samples")
+        for k in ("naive", "stiction", "samples", "naive_objects", "stiction_objects")
     }
     pooled = {
         "recording": "all (pooled)",
@@ -220,12 +242,14 @@ def main(argv: list[str]) -> int:
         "seconds": pooled_s,
     }
     ratio = pooled_s["naive"]["min"] / pooled_s["stiction"]["min"]
+    ratio_obj = pooled_s["naive_objects"]["min"] / pooled_s["stiction_objects"]["min"]
     table = _table(rows, pooled)
     summary = (
         f"\nframe assembler: {total_events / pooled_s['stiction']['min'] / 1e6:.2f} million "
         f"events/s, {pooled_s['stiction']['min'] / total_frames * 1e6:.2f} us per frame; "
-        f"{ratio:.1f}x faster than categorize() + dicts "
+        f"{ratio:.1f}x faster than read() + categorize() + dicts "
         f"({pooled_s['naive']['min'] / total_frames * 1e6:.2f} us per frame)\n"
+        f"from ready-made InputEvent objects: {ratio_obj:.1f}x\n"
         f"with PenSample conversion: {pooled_s['samples']['min'] / total_frames * 1e6:.2f} us "
         "per frame"
     )
@@ -237,6 +261,7 @@ def main(argv: list[str]) -> int:
         "recordings": rows,
         "pooled": pooled,
         "ratio_naive_over_stiction": ratio,
+        "ratio_from_inputevent_objects": ratio_obj,
     }
     if args.json:
         print(json.dumps(result, indent=2))
