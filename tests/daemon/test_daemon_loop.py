@@ -273,3 +273,41 @@ def _wait_for(sub: zmq.Socket[Any], pred: Any, limit: int = 2000) -> dict[str, A
         if m.get("kind") == "frame" and pred(m):
             return dict(m)
     raise AssertionError("condition not met")
+
+
+def test_daemon_and_stiction_simulate_agree_on_a_recording(
+    evdev_data: Path, endpoints: tuple[str, str], tmp_path: Path
+) -> None:
+    """The same recording both ways: the live daemon (virtual clock) and
+    `stiction simulate` on its samples written as a trace."""
+    from stiction import cli
+
+    path = evdev_data / "uc-logic-wp5540u-pen.evemu"
+    samples = _replay_samples(path)
+    trace = tmp_path / "trace.csv"
+    with trace.open("w") as f:
+        f.write("t,x,y,contact\n")
+        for s in samples:
+            f.write(f"{s.t!r},{s.x!r},{s.y!r},{int(s.tip)}\n")
+    out = tmp_path / "out.csv"
+    assert cli.main(["simulate", str(trace), "--out", str(out)]) == 0
+    rows = {}
+    header, *lines = out.read_text().splitlines()
+    names = header.split(",")
+    for line in lines:
+        row = dict(zip(names, line.split(","), strict=True))
+        rows[round(float(row["t"]), 6)] = row
+
+    sent = _run_virtual(endpoints, f"replay:{path}")
+    frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
+    compared = 0
+    for f in frames:
+        row = rows.get(round(f["t"], 6))
+        if row is None or row["phase"] not in ("stick", "slip") or not f["contacts"]:
+            continue
+        (c,) = f["contacts"]
+        assert c["phase"] == row["phase"], f["tick"]
+        assert c["pointer_m"][0] == pytest.approx(float(row["pointer_x"]), abs=1e-12)
+        assert c["pointer_m"][1] == pytest.approx(float(row["pointer_y"]), abs=1e-12)
+        compared += 1
+    assert compared > 300
