@@ -87,7 +87,9 @@ def test_outputs_finite_and_stick_bound_holds(
             math.isfinite(v) for v in (s.pointer_x, s.pointer_y, s.vx, s.vy, s.tension, s.string_px)
         )
         if s.phase == "stick":
-            assert s.tension <= p.F_s * (1 + 1e-9) + 1e-300
+            # "plus round-off": the stretch carries that of absolute coordinates.
+            coords = abs(s.touch_x) + abs(s.touch_y) + abs(s.pointer_x) + abs(s.pointer_y)
+            assert s.tension <= p.F_s * (1 + 1e-9) + p.k * 1e-15 * coords + 1e-300
             assert (s.vx, s.vy) == (0.0, 0.0)
         if s.phase in ("hover", "up"):
             assert (s.pointer_x, s.pointer_y) == (s.touch_x, s.touch_y)
@@ -126,6 +128,8 @@ def test_no_blow_up_at_w_dt_100(samples: list[Touch], integrator: str, mu: float
         default=0.0,
     )  # fmt: skip
     reach = (p.F_s + p.F_k) / p.k + vmax / (p.w * math.e) * (1 + 1e-9) + 1e-12
+    if integrator == "implicit-projection":
+        reach += vmax * p.dt  # first order: its overshoot may exceed the exact one by ~h v
     for s in run(sim, samples, hold=10):
         assert min(xs) - reach <= s.pointer_x <= max(xs) + reach
         assert min(ys) - reach <= s.pointer_y <= max(ys) + reach
