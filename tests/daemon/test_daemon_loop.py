@@ -311,3 +311,33 @@ def test_daemon_and_stiction_simulate_agree_on_a_recording(
         assert c["pointer_m"][1] == pytest.approx(float(row["pointer_y"]), abs=1e-12)
         compared += 1
     assert compared > 300
+
+
+def test_a_tablet_plugged_in_later_is_picked_up(endpoints: tuple[str, str]) -> None:
+    """With no device named, the watcher adds newly discovered devices."""
+    first = ListSource(stroke(n=5), gate=threading.Event())
+    late = ListSource(stroke(n=5), name="late-tablet", gate=threading.Event())
+    d = make_daemon(endpoints, {"pen": first})
+    present: list[str] = []
+    d.hotplug = Hotplug(
+        lambda: d.slots, lambda s: late, use_udev=False, discover=lambda: list(present)
+    )
+    ctx = zmq.Context.instance()
+    sub = subscribe(ctx, d, endpoints[0])
+    try:
+        with Runner(d):
+            assert d.hotplug.scan_once() == 0  # nothing new yet
+            present.append("/dev/hidraw7")
+            assert d.hotplug.scan_once() == 1
+            assert d.hotplug.scan_once() == 0  # not opened twice while it is handed over
+            frame = _wait_for(sub, lambda m: m["device"] == "late-tablet")
+            assert frame["kind"] == "frame"
+            names = [
+                x["name"]
+                for x in request(ctx, endpoints[1], protocol.make_request("devices"))["devices"]
+            ]
+            assert names == ["test-pen", "late-tablet"]
+            first.gate.set()  # type: ignore[union-attr]
+            late.gate.set()  # type: ignore[union-attr]
+    finally:
+        sub.close()

@@ -15,7 +15,7 @@ import threading
 from collections.abc import Callable
 from typing import Any
 
-from stiction.daemon.devices import DeviceSlot, open_source
+from stiction.daemon.devices import DeviceConfig, DeviceSlot, open_source, parse_spec
 from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 
@@ -30,13 +30,18 @@ class Hotplug:
         slots: Callable[[], list[DeviceSlot]],
         opener: Callable[[DeviceSlot], SampleSource] | None = None,
         use_udev: bool = True,
+        discover: Callable[[], list[str]] | None = None,
     ) -> None:
         self._slots = slots
         self._open = opener or (lambda s: open_source(s.spec, s.config, True, True))
+        self._discover = discover
+        """With no devices named, new tablets are picked up: returns the specs present."""
         self.ready: queue.SimpleQueue[tuple[DeviceSlot, SampleSource]] = queue.SimpleQueue()
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._opening: set[int] = set()
+        self._new: list[DeviceSlot] = []
+        """Discovered devices not yet handed to the loop."""
         self._monitor: Any = None
         self._thread: threading.Thread | None = None
         self._udev_thread: threading.Thread | None = None
@@ -55,9 +60,25 @@ class Hotplug:
         self._wake.set()
 
     def scan_once(self) -> int:
-        """Try to open every absent device once; returns how many were opened."""
+        """Try to open every absent device once, and any new one when devices
+        were discovered rather than named; returns how many were opened."""
         opened = 0
-        for slot in self._slots():
+        slots = self._slots()
+        if self._discover is not None:
+            known = {s.config.spec for s in slots} | {
+                s.config.spec for s in self._new if s.config.spec
+            }
+            try:
+                found = self._discover()
+            except Exception:
+                log.exception("discovery_failed")
+                found = []
+            for spec in found:
+                if spec not in known:
+                    slot = DeviceSlot(config=DeviceConfig(spec), spec=parse_spec(spec), name=spec)
+                    self._new.append(slot)
+        candidates = [*slots, *[s for s in self._new if id(s) not in self._opening]]
+        for slot in candidates:
             if slot.state != "absent" or slot.spec.finite or id(slot) in self._opening:
                 continue
             if slot.run is not None or (slot.thread is not None and slot.thread.is_alive()):
@@ -77,6 +98,8 @@ class Hotplug:
 
     def installed(self, slot: DeviceSlot) -> None:
         self._opening.discard(id(slot))
+        if slot in self._new:
+            self._new.remove(slot)
 
     def _run(self) -> None:
         while not self._stop.is_set():

@@ -149,12 +149,16 @@ class Daemon:
             names.add(slot.name)
         if self.virtual:
             self._align_virtual()
-        elif self.opts.hotplug and any(not s.spec.finite for s in self.slots):
+        elif self.opts.hotplug and (
+            not self.opts.devices or any(not s.spec.finite for s in self.slots)
+        ):
             from stiction.daemon.hotplug import Hotplug
 
             opener = self.opener
             self.hotplug = Hotplug(
-                lambda: self.slots, lambda s: opener(s.spec, s.config, True, True)
+                lambda: self.slots,
+                lambda s: opener(s.spec, s.config, True, True),
+                discover=None if self.opts.devices else _discover_specs,
             )
             self.hotplug.start()
         log.info(
@@ -226,9 +230,16 @@ class Daemon:
         while not hp.ready.empty():
             slot, source = hp.ready.get_nowait()
             try:
+                new = slot not in self.slots
                 self._install(slot, source)
-                slot.reopened += 1
-                log.info("device_reopened device=%s", slot.name)
+                if new:
+                    if any(s.name == slot.name for s in self.slots):
+                        slot.name = f"{slot.name}#{len(self.slots) + 1}"
+                    self.slots.append(slot)
+                    log.info("device_added device=%s spec=%s", slot.name, slot.config.spec)
+                else:
+                    slot.reopened += 1
+                    log.info("device_reopened device=%s", slot.name)
             except StictionError as exc:
                 log.warning("reopen_refused device=%s error=%s", slot.name, exc)
             hp.installed(slot)
@@ -510,19 +521,28 @@ class Daemon:
         }
 
 
-def _auto_devices() -> list[DeviceConfig]:
-    """No devices named: every usable tablet/touchpad found, else the synthetic pen."""
-    try:
-        from stiction.drivers.cli import discover_all
+def _discover_specs() -> list[str]:
+    """Paths of the usable tablets, touchpads and touchscreens present now."""
+    from stiction.drivers.cli import discover_all
 
-        found = [i for i in discover_all() if i.problem is None and i.kind != "other"]
+    usable = [i for i in discover_all() if i.problem is None and i.kind != "other"]
+    # A tablet shows up both as hidraw and as evdev nodes; read it once, through hidraw.
+    on_hidraw = {(i.vid, i.pid) for i in usable if i.backend == "hidraw"}
+    return [i.path for i in usable if i.backend == "hidraw" or (i.vid, i.pid) not in on_hidraw]
+
+
+def _auto_devices() -> list[DeviceConfig]:
+    """No devices named: every usable tablet/touchpad found, else the synthetic pen
+    (tablets plugged in later are picked up by the hot-plug watcher)."""
+    try:
+        found = _discover_specs()
     except Exception:  # discovery problems must not stop the no-argument start
         log.exception("discovery_failed")
         found = []
     if not found:
         log.info("no_devices_found using=synthetic:demo")
         return [DeviceConfig("synthetic:demo")]
-    return [DeviceConfig(i.path) for i in found]
+    return [DeviceConfig(path) for path in found]
 
 
 def _ms(value: float | None) -> float | None:
