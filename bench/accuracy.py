@@ -197,21 +197,43 @@ def errors(a: Run, ref: Run) -> tuple[float, float, float]:
     return rms, max(d) / PX, worst * 1000.0
 
 
-def time_per_step(setting: Setting, params: Params, all_ticks: list[list], repeats: int) -> float:
-    best = math.inf
+def time_per_step(
+    sets: Sequence[Setting], params: Params, all_ticks: list[list], repeats: int
+) -> list[float]:
+    """us per ContactSim step for each setting: repeats interleaved round-robin
+    (so load from other processes hits every setting alike), minimum kept."""
     n = sum(len(tk) for tk in all_ticks)
+    best = [math.inf] * len(sets)
     for _ in range(repeats):
-        sims = [
-            ContactSim(params, setting.integrator, setting.substeps, setting.events)
-            for _ in all_ticks
-        ]
+        for j, st in enumerate(sets):
+            sims = [ContactSim(params, st.integrator, st.substeps, st.events) for _ in all_ticks]
+            t0 = time.perf_counter()
+            for sim, tk in zip(sims, all_ticks, strict=True):
+                adv = sim.advance
+                for t, batch in tk:
+                    adv(t, batch)
+            best[j] = min(best[j], time.perf_counter() - t0)
+    return [b / n * 1e6 for b in best]
+
+
+def slide_cost(name: str, params: Params, repeats: int) -> float:
+    """us per step while sliding steadily (no events): the bare cost of one step."""
+    v = 0.02
+    samples = [Touch(i / RATE_IN, v * i / RATE_IN, 0.0) for i in range(round(4.0 * RATE_IN) + 1)]
+    tk = ticks(Stroke("slide", tuple(samples), True), params.dt)
+    warm, timed = tk[:100], tk[100:]  # released at 0.34 s, steady by 1 s
+    best = math.inf
+    for _ in range(repeats):
+        sim = ContactSim(params, name)
+        for t, batch in warm:
+            sim.advance(t, batch)
+        assert sim.mode == 1  # sliding
+        adv = sim.advance
         t0 = time.perf_counter()
-        for sim, tk in zip(sims, all_ticks, strict=True):
-            adv = sim.advance
-            for t, batch in tk:
-                adv(t, batch)
+        for t, batch in timed:
+            adv(t, batch)
         best = min(best, time.perf_counter() - t0)
-    return best / n * 1e6
+    return best / len(timed) * 1e6
 
 
 def batch_cost(
@@ -302,10 +324,10 @@ def main(argv: list[str]) -> int:
     params = Params()
     sts = strokes()
     sets = settings(args.quick)
-    repeats = 2 if args.quick else 5
+    repeats = 2 if args.quick else 7
     dt = params.dt
     all_ticks = [ticks(s, dt) for s in sts]
-    bar = _progress(len(sets) + 6, sys.stderr.isatty() and not args.json)
+    bar = _progress(len(sets) + 8, sys.stderr.isatty() and not args.json)
 
     def step(msg: str) -> None:
         if bar is not None:
@@ -332,11 +354,18 @@ def main(argv: list[str]) -> int:
         for s, tk, ref in zip(sts, all_ticks, refs, strict=True):
             sim = ContactSim(params, st.integrator, st.substeps, st.events)
             per.append((s.name, *errors(simulate(sim, tk), ref)))
-        us = time_per_step(st, params, all_ticks, repeats)
-        rows.append({"setting": st, "per": per, "us": us})
+        rows.append({"setting": st, "per": per})
         step(st.label)
+    for r, us in zip(rows, time_per_step(sets, params, all_ticks, repeats), strict=True):
+        r["us"] = us
+    step("timing")
     euler_us = next(r["us"] for r in rows if r["setting"] == Setting("explicit-euler", 1, False))
 
+    slide = {
+        name: slide_cost(name, params, repeats * 3)
+        for name in ("explicit-euler", "exact", "explicit-euler", "exact")
+    }
+    step("slide")
     contacts = args.contacts
     nticks = 60 if args.quick else 150
     for r in rows:
@@ -390,7 +419,7 @@ def main(argv: list[str]) -> int:
     if bar is not None:
         bar.close()
 
-    text = _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts)
+    text = _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts, slide)
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / "accuracy.txt").write_text(text)
     (RESULTS / "accuracy.json").write_text(
@@ -411,6 +440,7 @@ def main(argv: list[str]) -> int:
                 ],
                 "batch_contacts": contacts,
                 "loop_ns_per_contact_step": naive_ns,
+                "steady_slide_us_per_step": slide,
                 "targets": targets,
                 "python": sys.version.split()[0],
                 "numpy": np.__version__,
@@ -443,7 +473,7 @@ def _fmt(v: float | None, spec: str) -> str:
     return format(v, spec)
 
 
-def _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts) -> str:  # type: ignore[no-untyped-def]
+def _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts, slide) -> str:  # type: ignore[no-untyped-def]
     lines = [
         "stiction bench accuracy: pointer error vs reference, worst stroke (220 ppi), "
         "100 Hz ticks, 200 Hz samples",
@@ -460,6 +490,13 @@ def _table(records, ref_check, follow, naive_ns, batch_default, targets, contact
             f"{_fmt(x['release_ms'], '10.3f')} {x['us_per_step']:8.2f} "
             f"{x['ratio_to_explicit_euler']:7.2f} {_fmt(x['ns_per_contact_step'], '9.1f')}"
         )
+    lines += [
+        "",
+        "us/step is ContactSim.advance per tick over all strokes, events and sample handling "
+        "included;",
+        f"steady sliding only (no events): explicit-euler {slide['explicit-euler']:.2f} us, "
+        f"exact {slide['exact']:.2f} us ({slide['exact'] / slide['explicit-euler']:.2f}x)",
+    ]
     lines += ["", "reference check (2-D strokes; max px):"]
     for n, a, b in ref_check:
         lines.append(f"  {n:16s} 256 vs 512 substeps {a:.1e}   rk4 x256 vs reference {b:.1e}")
