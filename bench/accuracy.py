@@ -15,6 +15,7 @@ bench/results/accuracy.{json,txt,png}.
 import argparse
 import json
 import math
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -216,24 +217,29 @@ def time_per_step(
     return [b / n * 1e6 for b in best]
 
 
-def slide_cost(name: str, params: Params, repeats: int) -> float:
-    """us per step while sliding steadily (no events): the bare cost of one step."""
+def slide_cost(names: Sequence[str], params: Params, repeats: int) -> dict[str, float]:
+    """us per step while sliding steadily (no events): the bare cost of one step.
+
+    Runs alternate between the integrators and the minimum is kept, so that
+    load from other processes on the machine hits them alike.
+    """
     v = 0.02
     samples = [Touch(i / RATE_IN, v * i / RATE_IN, 0.0) for i in range(round(4.0 * RATE_IN) + 1)]
     tk = ticks(Stroke("slide", tuple(samples), True), params.dt)
     warm, timed = tk[:100], tk[100:]  # released at 0.34 s, steady by 1 s
-    best = math.inf
+    best = dict.fromkeys(names, math.inf)
     for _ in range(repeats):
-        sim = ContactSim(params, name)
-        for t, batch in warm:
-            sim.advance(t, batch)
-        assert sim.mode == 1  # sliding
-        adv = sim.advance
-        t0 = time.perf_counter()
-        for t, batch in timed:
-            adv(t, batch)
-        best = min(best, time.perf_counter() - t0)
-    return best / len(timed) * 1e6
+        for name in names:
+            sim = ContactSim(params, name)
+            for t, batch in warm:
+                sim.advance(t, batch)
+            assert sim.mode == 1  # sliding
+            adv = sim.advance
+            t0 = time.perf_counter()
+            for t, batch in timed:
+                adv(t, batch)
+            best[name] = min(best[name], time.perf_counter() - t0)
+    return {k: v / len(timed) * 1e6 for k, v in best.items()}
 
 
 def batch_cost(
@@ -315,7 +321,12 @@ def _progress(total: int, enabled: bool):  # type: ignore[no-untyped-def]
     return tqdm(total=total, file=sys.stderr, desc="accuracy", leave=False)
 
 
+LOAD = 0.0
+
+
 def main(argv: list[str]) -> int:
+    global LOAD
+    LOAD = os.getloadavg()[0]
     ap = argparse.ArgumentParser(prog="stiction bench accuracy", description=__doc__)
     ap.add_argument("--json", action="store_true", help="one JSON object per setting")
     ap.add_argument("--quick", action="store_true", help="fewer settings and repeats")
@@ -324,7 +335,7 @@ def main(argv: list[str]) -> int:
     params = Params()
     sts = strokes()
     sets = settings(args.quick)
-    repeats = 2 if args.quick else 7
+    repeats = 2 if args.quick else 15
     dt = params.dt
     all_ticks = [ticks(s, dt) for s in sts]
     bar = _progress(len(sets) + 8, sys.stderr.isatty() and not args.json)
@@ -361,10 +372,7 @@ def main(argv: list[str]) -> int:
     step("timing")
     euler_us = next(r["us"] for r in rows if r["setting"] == Setting("explicit-euler", 1, False))
 
-    slide = {
-        name: slide_cost(name, params, repeats * 3)
-        for name in ("explicit-euler", "exact", "explicit-euler", "exact")
-    }
+    slide = slide_cost(("explicit-euler", "exact"), params, 30 if args.quick else 100)
     step("slide")
     contacts = args.contacts
     nticks = 60 if args.quick else 150
@@ -441,6 +449,7 @@ def main(argv: list[str]) -> int:
                 "batch_contacts": contacts,
                 "loop_ns_per_contact_step": naive_ns,
                 "steady_slide_us_per_step": slide,
+                "load_average_at_start": LOAD,
                 "targets": targets,
                 "python": sys.version.split()[0],
                 "numpy": np.__version__,
@@ -477,6 +486,8 @@ def _table(records, ref_check, follow, naive_ns, batch_default, targets, contact
     lines = [
         "stiction bench accuracy: pointer error vs reference, worst stroke (220 ppi), "
         "100 Hz ticks, 200 Hz samples",
+        f"(times: minimum of interleaved repeats; load average at start {LOAD:.2f} "
+        f"on {os.cpu_count()} CPUs)",
         "",
         f"{'setting':34s} {'rms px':>9s} {'max px':>9s} {'release ms':>10s} {'us/step':>8s} "
         f"{'x Euler':>7s} {'batch ns':>9s}",
