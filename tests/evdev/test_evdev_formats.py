@@ -244,3 +244,139 @@ def test_describe(evdev_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
     info = json.loads(capsys.readouterr().out)
     assert info["kind"] == "pen" and info["size_source"] == "device table"
     assert info["size_m"] == pytest.approx([0.22352, 0.1397])
+
+
+# -- random input to the parsers: a RecordingError or a result, nothing else ----------
+
+from hypothesis import given  # noqa: E402
+from hypothesis import strategies as st  # noqa: E402
+
+_tokens = st.sampled_from(
+    [
+        "E:",
+        "N:",
+        "I:",
+        "P:",
+        "B:",
+        "A:",
+        "#",
+        "0",
+        "1",
+        "-1",
+        "03",
+        "0003",
+        "ff",
+        "zz",
+        "0.1",
+        "1.000001",
+        "99999999999",
+        "1.2.3",
+        "# Event code 0 (ABS_X)",
+        "#   Value 7",
+        " ",
+        "\t",
+    ]
+)
+_lines = st.lists(st.lists(_tokens, max_size=7).map(" ".join), max_size=30).map("\n".join)
+
+
+@given(text=_lines)
+def test_random_evemu_text_never_crashes(
+    tmp_path_factory: pytest.TempPathFactory, text: str
+) -> None:
+    p = tmp_path_factory.mktemp("rnd") / "x.evemu"
+    p.write_text(text)
+    try:
+        rec = load(p, p)
+    except RecordingError:
+        return
+    FrameAssembler(rec.description).feed_many(rec.events)
+
+
+_yaml_values = st.recursive(
+    st.one_of(st.none(), st.booleans(), st.integers(-5, 70000), st.text(max_size=5)),
+    lambda inner: st.one_of(
+        st.lists(inner, max_size=6),
+        st.dictionaries(
+            st.sampled_from(
+                [
+                    "version",
+                    "devices",
+                    "evdev",
+                    "name",
+                    "id",
+                    "codes",
+                    "absinfo",
+                    "properties",
+                    "events",
+                    "udev",
+                    0,
+                    1,
+                    3,
+                    47,
+                    53,
+                ]
+            ),
+            inner,
+            max_size=6,
+        ),
+    ),
+    max_leaves=30,
+)
+
+
+_event = st.tuples(
+    st.integers(0, 3),
+    st.integers(0, 999999),
+    st.sampled_from([0, 1, 3, 4]),
+    st.sampled_from([0, 1, 2, 3, 24, 47, 53, 54, 57, 58, 320, 325, 330]),
+    st.one_of(st.integers(-2, 3), st.integers(-(2**31), 2**31 - 1)),
+).map(list)
+_absinfo = st.tuples(
+    st.integers(-100, 100), st.integers(-100, 5000), st.just(0), st.just(0), st.integers(0, 50)
+).map(list)
+_device = st.fixed_dictionaries(
+    {
+        "evdev": st.fixed_dictionaries(
+            {
+                "name": st.text(max_size=8),
+                "id": st.just([3, 1, 2, 3]),
+                "codes": st.fixed_dictionaries(
+                    {
+                        1: st.lists(st.sampled_from([320, 325, 330, 272]), max_size=4),
+                        3: st.lists(st.sampled_from([0, 1, 24, 47, 53, 54, 57, 58]), max_size=8),
+                    }
+                ),
+                "absinfo": st.dictionaries(
+                    st.sampled_from([0, 1, 24, 47, 53, 54, 57, 58]), _absinfo
+                ),
+                "properties": st.lists(st.integers(0, 5), max_size=3),
+            }
+        ),
+        "events": st.lists(st.fixed_dictionaries({"evdev": st.lists(_event, max_size=8)})),
+    }
+)
+
+
+@given(doc=st.one_of(_yaml_values, _device))
+def test_random_libinput_record_never_crashes(
+    tmp_path_factory: pytest.TempPathFactory, doc: object
+) -> None:
+    import yaml
+
+    from stiction.drivers.evdev.replay import ReplaySource
+    from stiction.errors import StictionError
+
+    p = tmp_path_factory.mktemp("rnd") / "x.yml"
+    p.write_text(yaml.safe_dump({"version": 1, "devices": [doc]}))
+    try:
+        rec = load(p)
+    except RecordingError:
+        return
+    FrameAssembler(rec.description).feed_many(rec.events)
+    try:
+        src = ReplaySource(rec)  # the daemon's path: size checks, then samples
+    except StictionError:
+        return
+    for smp in src.samples():
+        assert smp.pressure is None or 0.0 <= smp.pressure <= 1.0

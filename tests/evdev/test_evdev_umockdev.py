@@ -39,6 +39,7 @@ SLOW = [
     ("uc-logic-wp5540u-pen.evemu", {"ID_INPUT_TABLET": "1"}),
     ("elantech-touchpad.samsung-700z3a.evemu", {"ID_INPUT_TOUCHPAD": "1"}),
     ("wacom-intuos5-touch-m-finger.desc", {"ID_INPUT_TOUCHPAD": "1"}),
+    ("synaptics-touchpad.hp8470p.desc", {"ID_INPUT_TOUCHPAD": "1"}),  # no resolution
 ]
 
 
@@ -402,3 +403,47 @@ def test_syn_dropped_on_a_live_device_resyncs_from_the_kernel_state(
     assert stats.get("resync_failed_slots", 0) == 0 and stats.get("resync_failed_keys", 0) == 0
     assert stats["events_discarded"] == syn[k] - start  # all of frame k's events
     assert lines == expected  # frame k itself comes back from the re-read state
+
+
+CLOSE_SCRIPT = textwrap.dedent(
+    """
+    import sys, threading
+    from stiction.drivers.evdev import open_device
+    src = open_device(sys.argv[1], grab=True)
+    got, first = [], threading.Event()
+    def consume():
+        for s in src.samples():
+            got.append(s)
+            first.set()
+    th = threading.Thread(target=consume)
+    th.start()
+    assert first.wait(20), "no sample arrived"
+    src.close()
+    th.join(20)
+    print("stopped" if not th.is_alive() else "still running", len(got) > 0)
+    """
+)
+
+
+def test_close_from_another_thread_stops_a_blocked_reader(evdev_data: Path, tmp_path: Path) -> None:
+    rec = load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu")
+    rec.events = rec.events[:60]  # a few frames, then silence: the reader blocks in select()
+    files = write(rec, tmp_path)
+    proc = run_under_umockdev([files], [stiction_cmd()[0], "-c", CLOSE_SCRIPT, files.node])
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout.split() == ["stopped", "True"]
+
+
+def test_samples_of_a_device_without_size_is_a_clear_error(
+    evdev_data: Path, tmp_path: Path
+) -> None:
+    files = write(load(evdev_data / "synaptics-touchpad.hp8470p.desc"), tmp_path)
+    script = (
+        "import sys\nfrom stiction.drivers.evdev import open_device\n"
+        "from stiction.errors import DeviceError\n"
+        "try:\n    open_device(sys.argv[1])\n"
+        "except DeviceError as e:\n    print(e)\n"
+    )
+    proc = run_under_umockdev([files], [stiction_cmd()[0], "-c", script, files.node])
+    assert proc.returncode == 0, proc.stderr
+    assert "SynPS/2 Synaptics TouchPad" in proc.stdout and "no resolution" in proc.stdout

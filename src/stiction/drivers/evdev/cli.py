@@ -167,7 +167,7 @@ def _read(args: argparse.Namespace) -> int:
 
     from stiction.drivers.evdev.device import DeviceSource
 
-    src = DeviceSource(args.device, grab=args.grab, size_mm=args.size)
+    src = DeviceSource(args.device, grab=args.grab, size_mm=args.size, require_size=False)
     try:
         frames: Iterable[Any] = src.frames()
         if args.frames is not None:
@@ -240,7 +240,7 @@ def _record(args: argparse.Namespace) -> int:
 
     out_path = Path(args.output)
     yaml_out = out_path.suffix in (".yml", ".yaml")
-    src = DeviceSource(args.device, grab=args.grab)
+    src = DeviceSource(args.device, grab=args.grab, require_size=False)
     frames = 0
     events = 0
     try:

@@ -156,7 +156,10 @@ class DeviceSource:
         path: str,
         grab: bool = False,
         size_mm: tuple[float, float] | None = None,
+        require_size: bool = True,
     ) -> None:
+        """`require_size=False` lets diagnostic tools read frames of a device whose
+        size is unknown (metres are then null); samples() needs the size."""
         self.path = path
         self._dev = _open(path)
         self._lock = threading.Lock()
@@ -170,7 +173,8 @@ class DeviceSource:
         try:
             desc = describe(self._dev, _udev_properties(path))
             desc = sizes.apply(desc, size_mm)
-            sizes.require(desc)
+            if require_size:
+                sizes.require(desc)
             self.description = desc
             self._units = SurfaceUnits(desc)
             self.clock = self._set_monotonic_clock()
@@ -203,6 +207,7 @@ class DeviceSource:
         return kind_of(self.description)
 
     def samples(self) -> Iterator[PenSample]:
+        sizes.require(self.description)
         units = self._units
         for frame in self.frames():
             for s in frame_samples(units, frame):
