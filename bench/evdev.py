@@ -210,7 +210,7 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
     ours = [r["seconds"]["stiction"]["min"] / r["frames"] * 1e6 for r in rows]
     fig, ax = plt.subplots(figsize=(9, 4.5))
     y = range(len(names))
-    ax.barh([i + 0.2 for i in y], naive, height=0.4, label="categorize() + dicts (naive)")
+    ax.barh([i + 0.2 for i in y], naive, height=0.4, label="read() + categorize() + dicts (naive)")
     ax.barh([i - 0.2 for i in y], ours, height=0.4, label="stiction FrameAssembler")
     ax.set_yticks(list(y), names)
     ax.set_xlabel("microseconds per frame (min over repeats)")
@@ -224,7 +224,7 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="stiction bench evdev", description=__doc__.split("\n")[0])
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
-    ap.add_argument("--repeat", type=int, default=9, help="timed repeats per path")
+    ap.add_argument("--repeat", type=int, default=21, help="timed repeats per path")
     ap.add_argument("--no-write", action="store_true", help="do not write bench/results/")
     args = ap.parse_args(argv)
     rows = [_bench_recording(DATA / name, args.repeat) for name in RECORDINGS]
