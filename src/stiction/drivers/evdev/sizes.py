@@ -112,6 +112,7 @@ def require(desc: DeviceDescription) -> None:
         return
     raise DeviceError(
         f"{desc.name!r} ({desc.vid_pid}) reports no resolution, so its physical size is "
-        "unknown; measure the active area and configure it (size_mm = [width, height] in "
-        "the device's config entry, or --size WxH on the command line)"
+        "unknown; measure the active area and configure it: surface_size = [width, height] "
+        "in metres in the device's [[devices]] entry of the stictiond config, or --size WxH "
+        "in mm for 'stiction evdev'"
     )
