@@ -1,10 +1,13 @@
 """Event stream -> frames: the kernel's SYN_REPORT-delimited snapshots of contacts.
 
 The kernel sends state changes; a frame is the complete state at one
-SYN_REPORT. Events of a frame are buffered and applied only when its
-SYN_REPORT arrives, so a frame cut short by SYN_DROPPED can be thrown away
-whole and the last good state is kept (the kernel's rule for SYN_DROPPED:
-ignore everything up to and including the next SYN_REPORT, then re-query).
+SYN_REPORT. Events go straight into the state, but the first change of each
+axis, slot and of the key set within a frame is remembered, so a frame cut
+short by SYN_DROPPED is undone whole and the last good state is kept (the
+kernel's rule for SYN_DROPPED: ignore everything up to and including the next
+SYN_REPORT, then re-query). The first version buffered a frame's events and
+applied them at SYN_REPORT; it is kept in the tests as the oracle this one
+must agree with, because one pass is half the work.
 
 A contact is a multi-touch slot with a tracking id (protocol B) or, on a
 device without slots, the tool in range. When a contact disappears, the frame
@@ -13,7 +16,8 @@ ended even though the kernel only said "tracking id -1" or "tool up" and may
 already have reset the axes (Wacom zeroes X/Y on proximity-out).
 
 Impossible input is counted in `stats`, never raised: slot numbers beyond the
-device's slot count, a tracking id already held by another slot, keys with
+device's slot count, a tracking id already held by another slot, a new
+tracking id without -1 first (the old contact ends), keys with
 values other than 0/1/2, axis values outside the advertised range (kept as
 sent: real firmware exceeds its range, e.g. the Synaptics recording), events
 of types and codes the device does not have.
