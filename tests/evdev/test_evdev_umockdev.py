@@ -447,3 +447,14 @@ def test_samples_of_a_device_without_size_is_a_clear_error(
     proc = run_under_umockdev([files], [stiction_cmd()[0], "-c", script, files.node])
     assert proc.returncode == 0, proc.stderr
     assert "SynPS/2 Synaptics TouchPad" in proc.stdout and "no resolution" in proc.stdout
+
+
+def test_describe_a_live_device(evdev_data: Path, tmp_path: Path) -> None:
+    files = write(load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu"), tmp_path)
+    proc = run_under_umockdev([files], stiction_cmd("evdev", "describe", files.node, "--json"))
+    assert proc.returncode == 0, proc.stderr
+    info = json.loads(proc.stdout)
+    assert info["name"] == "Wacom Cintiq 13HD touch Pen" and info["kind"] == "pen"
+    assert info["size_source"] == "kernel"
+    assert info["size_m"] == pytest.approx([(59152 - 400) / 200 / 1000, (33448 - 400) / 200 / 1000])
+    assert info["axes"]["ABS_TILT_X"] == [-64, 63, 57.0]
