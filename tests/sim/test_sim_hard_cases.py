@@ -10,7 +10,7 @@ from sim_helpers import drive, energy, is_normal_or_zero, sampled
 
 from stiction.drivers.sample import PenSample
 from stiction.errors import ParamError
-from stiction.sim import ContactSim, Params, Touch
+from stiction.sim import BatchSim, ContactSim, Params, Touch
 
 STABLE = ("exact", "implicit-projection")
 
@@ -283,3 +283,20 @@ def test_stick_radius_below_coordinate_round_off(mu_s: float) -> None:
         st = sim.advance(k / 60, [Touch(k / 60, 1e-7 * k, 1.000001 + 1e-7 * k)])
         assert st.phase != "stick" or st.tension <= p.F_s * (1 + 1e-9)
     assert sim.event_overflows == 0
+
+
+def test_an_hour_long_gap_is_bounded_work() -> None:
+    """A stalled caller: one tick an hour late on a frictionless material (which never
+    comes to rest by itself) must not take 360,000 steps; the gap ends at rest."""
+    p = Params(mu_s=0.0, mu_k=0.0)
+    sim = ContactSim(p)
+    sim.advance(0.0, [Touch(0.0, 0.0, 0.0)])
+    sim.advance(0.01, [Touch(0.01, 0.01, 0.0)])
+    st = sim.advance(3600.0, [])
+    assert sim.truncated_steps == 1
+    assert st.pointer_x == pytest.approx(0.01, abs=1e-6) and (st.vx, st.vy) == (0.0, 0.0)
+    batch = BatchSim(1, p)
+    for t, x in ((0.0, 0.0), (0.01, 0.01), (3600.0, 0.01)):
+        batch.advance(t, [x], [0.0], [True])
+    assert batch.truncated_steps == 1
+    assert batch.state(0).pointer_x == pytest.approx(st.pointer_x, abs=1e-12)

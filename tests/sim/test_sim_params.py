@@ -75,3 +75,18 @@ def test_unstable_fixed_step_is_refused_with_the_substeps_that_work(name: str) -
         assert need == 51  # |1 - w h| < 1  <=>  w h < 2
     for stable in ("exact", "implicit-projection", "default"):
         ContactSim(stiff, stable)
+
+
+@pytest.mark.parametrize(
+    "values",
+    [{"k": 1e-300}, {"m": 1e300}, {"g": 1e300}, {"mu_s": 1e300}, {"k": 1e300, "m": 1e-300}],
+)
+def test_values_whose_derived_quantities_overflow_are_refused(values: dict[str, float]) -> None:
+    with pytest.raises(ParamError, match="out of the range"):
+        Params(**values)
+
+
+def test_absurd_rates_are_refused() -> None:
+    with pytest.raises(ParamError, match="rate must be <= 1e"):
+        Params(rate=1e300)
+    assert Params(rate=1e6).dt == 1e-6

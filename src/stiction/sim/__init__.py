@@ -49,6 +49,10 @@ EXTENSIONS (beyond the contract above, all optional):
   ``event_overflows`` counts pathological steps cut short.
 - Samples without an ``in_range`` attribute (``Touch``) end a contact as "up";
   ``PenSample`` with ``in_range=True`` and ``tip=False`` gives "hover".
+- ``Params`` also refuses a rate above 1 MHz and values whose derived
+  quantities overflow (k = 1e-300, m = 1e300, ...), with a ParamError.
+- A segment needing more than 1000 + 64*substeps pieces (a tick hours late)
+  ends at rest; counted in ``truncated_steps`` (ContactSim and BatchSim).
 - ``Params.w`` (sqrt(k/m)); ``ContactSim.mode`` (internal mode, RESTING is
   the "slip" phase at rest); ``ContactSim.releases`` / ``last_release``
   (count and time of break-aways, located inside the step with events on).

@@ -25,7 +25,16 @@ import numpy.typing as npt
 
 from stiction.errors import ParamError
 from stiction.sim import kernels
-from stiction.sim.contact import _MAX_ZERO_EVENTS, HOVER, MOVING, RESTING, STICK, UP, V_REST
+from stiction.sim.contact import (
+    _BASE_PIECES,
+    _MAX_ZERO_EVENTS,
+    HOVER,
+    MOVING,
+    RESTING,
+    STICK,
+    UP,
+    V_REST,
+)
 from stiction.sim.integrators import check_stable, resolve
 from stiction.sim.params import Params
 from stiction.sim.state import ContactState, Phase
@@ -96,6 +105,7 @@ class BatchSim:
         self.mode = np.full(n, UP, dtype=np.int8)
         self.rejected_samples = 0
         self.event_overflows = 0
+        self.truncated_steps = 0
         self._t: float | None = None
         self._load: F = np.ones(n)
         self._set_params(params if params is not None else Params())
@@ -248,12 +258,24 @@ class BatchSim:
     def _run(self, sub: F, md: npt.NDArray[np.int8], h: float) -> None:
         eps = 1e-13 * h
         zero = np.zeros(sub.shape[1], dtype=np.int32)
+        pieces = np.zeros(sub.shape[1], dtype=np.int64)
+        max_pieces = _BASE_PIECES + 64 * self.substeps
         live = np.ones(sub.shape[1], dtype=bool)
         with np.errstate(all="ignore"):
             while True:
                 live &= sub[LEFT] > eps
                 if not live.any():
                     return
+                moving = live & (md == MOVING)
+                pieces[moving] += 1
+                cut = moving & (pieces > max_pieces)
+                if cut.any():
+                    # As ContactSim: a long gap ends at rest (see _BASE_PIECES).
+                    self.truncated_steps += int(np.count_nonzero(cut))
+                    sub[UX, cut] = sub[TGTX, cut]
+                    sub[UY, cut] = sub[TGTY, cut]
+                    self._decide_subset(sub, md, cut, False)
+                    live &= ~cut
                 consumed = np.full(sub.shape[1], np.inf)
                 for mode, fn in (
                     (STICK, self._stick),

@@ -33,6 +33,12 @@ every few years) it counts as having come to rest. Without it a long still
 hold would creep into denormal numbers."""
 
 _MAX_ZERO_EVENTS = 16
+_BASE_PIECES = 1000
+"""Pieces per segment beyond 64 ticks' worth (64 * substeps) before a long gap is
+cut short: the touch is held still over such a gap and a moving pen has long
+settled, so the rest is taken at rest rather than stalling a caller for
+seconds (an hour-long gap with a frictionless material would be 360,000
+pieces). Counted in `truncated_steps`."""
 
 
 class ContactSim:
@@ -56,6 +62,7 @@ class ContactSim:
         self.clamped_samples = 0
         self.event_overflows = 0
         self.releases = 0
+        self.truncated_steps = 0
         self.last_release = math.nan
         """Time of the latest break-away (stick -> slip), located inside the step
         when events are on, else the end of the step that detected it."""
@@ -252,6 +259,8 @@ class ContactSim:
         """Advance over h seconds with the touch moving at (udx, udy), ending at u1 at t_end."""
         left = h
         zero_events = 0
+        pieces = 0
+        max_pieces = _BASE_PIECES + 64 * self.substeps
         events = self.events
         eps = 1e-13 * h
         while left > eps:
@@ -314,6 +323,12 @@ class ContactSim:
                 else:
                     self._start_moving(udx, udy)
             else:
+                pieces += 1
+                if pieces > max_pieces:
+                    self.truncated_steps += 1
+                    self._ux, self._uy = u1x, u1y
+                    self._rest_decide(udx, udy)
+                    return
                 n = math.ceil(left / self._hmax * (1.0 - 1e-12))
                 piece = left / n if n > 1 else left
                 consumed, event = self._piece(piece, udx, udy)

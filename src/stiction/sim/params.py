@@ -16,6 +16,8 @@ from typing import Any
 
 from stiction.errors import ParamError
 
+MAX_RATE = 1e6
+"""Hz. Far above any display or tablet; beyond it steps become too short to resolve."""
 # Parameters that may legitimately be zero (no static / no kinetic friction).
 _MAY_BE_ZERO = frozenset({"mu_s", "mu_k"})
 _UNITS = {
@@ -59,6 +61,29 @@ class Params:
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):
             object.__setattr__(self, f.name, _check(f.name, getattr(self, f.name)))
+        # Each value may be fine alone and still overflow what the integrators
+        # compute from them (k = 1e-300 makes the stick radius squared infinite).
+        if self.rate > MAX_RATE:
+            raise ParamError(f"parameter rate must be <= {MAX_RATE:g} Hz, got {self.rate!r}")
+        derived: tuple[float, ...]
+        try:
+            derived = (
+                self.c,
+                self.w,
+                self.w * self.w,
+                self.F_s,
+                self.F_k,
+                (self.F_s / self.k) ** 2,
+                self.F_k**2,
+                self.C_l * math.sqrt(self.k),
+            )
+        except (OverflowError, ZeroDivisionError):
+            derived = (math.inf,)
+        if not all(math.isfinite(v) for v in derived) or self.w == 0.0:
+            raise ParamError(
+                f"parameters k={self.k!r}, m={self.m!r}, g={self.g!r}, mu_s={self.mu_s!r}, "
+                f"mu_k={self.mu_k!r} are out of the range the simulator can compute with"
+            )
 
     @property
     def c(self) -> float:
