@@ -27,6 +27,7 @@ import select
 import struct
 import threading
 import time
+import weakref
 from collections import Counter
 from collections.abc import Iterator
 from typing import Any
@@ -43,6 +44,12 @@ from stiction.errors import DeviceError
 log = logging.getLogger(__name__)
 
 Event = tuple[int, int, int, int, int]
+
+
+def _close_fds(*fds: int) -> None:
+    for fd in fds:
+        with contextlib.suppress(OSError):
+            os.close(fd)
 
 
 def _read_batch(dev: Any) -> list[Event]:
@@ -162,7 +169,7 @@ class DeviceSource:
         size is unknown (metres are then null); samples() needs the size."""
         self.path = path
         self._dev = _open(path)
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()  # close() may run in a signal handler
         self._closed = threading.Event()
         self._released = False
         self._reading = False
@@ -170,6 +177,9 @@ class DeviceSource:
         self._stats: Counter[str] = Counter()
         self._assembler: FrameAssembler | None = None
         self._wake_r, self._wake_w = os.pipe()
+        # closes the pipe once, whether through close() or when an unclosed source
+        # is garbage-collected (python-evdev closes the device fd itself then)
+        self._close_pipe = weakref.finalize(self, _close_fds, self._wake_r, self._wake_w)
         try:
             desc = describe(self._dev, _udev_properties(path))
             desc = sizes.apply(desc, size_mm)
@@ -289,7 +299,9 @@ class DeviceSource:
             raise
 
     def _gone(self, why: str) -> DeviceGone:
+        """The error for an unplug; the source is finished, so everything is released."""
         self._stats["unplugged"] += 1
+        self._closed.set()
         return DeviceGone(f"{self.path} ({self.description.name!r}) went away ({why})")
 
     def _query_state(self) -> DeviceState:
@@ -344,9 +356,7 @@ class DeviceSource:
         self._ungrab()
         with contextlib.suppress(OSError):
             self._dev.close()
-        for fd in (self._wake_r, self._wake_w):
-            with contextlib.suppress(OSError):
-                os.close(fd)
+        self._close_pipe()
 
     def __enter__(self) -> DeviceSource:
         return self
