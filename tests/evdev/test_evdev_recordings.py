@@ -256,3 +256,37 @@ def test_package_replay_factory_survives_submodule_import(evdev_data: Path) -> N
     importlib.import_module("stiction.drivers.evdev.replay")
     src = pkg.replay(evdev_data / "cypress-trackpad.two-finger-press.evemu", None, False)
     assert src.kind == "touchpad" and len(list(src.samples())) == 69
+
+
+def test_discovery_from_sysfs_reports_problems(tmp_path: Path) -> None:
+    """Classification from sysfs bits alone, and the reason a node cannot be used."""
+    from stiction.drivers.evdev.discovery import discover
+
+    def node(n: int, name: str, key: str, abs_: str, props: str) -> None:
+        dev = tmp_path / f"event{n}" / "device"
+        (dev / "id").mkdir(parents=True)
+        (dev / "capabilities").mkdir()
+        (dev / "name").write_text(name + "\n")
+        (dev / "properties").write_text(props + "\n")
+        for f, v in (("bustype", "0003"), ("vendor", "056a"), ("product", "0333")):
+            (dev / "id" / f).write_text(v + "\n")
+        (dev / "id" / "version").write_text("0110\n")
+        (dev / "capabilities" / "key").write_text(key + "\n")
+        (dev / "capabilities" / "abs").write_text(abs_ + "\n")
+
+    def mask(*bits: int) -> str:  # sysfs: hex longs, most significant first
+        words = [0] * (max(bits) // 64 + 1)
+        for b in bits:
+            words[b // 64] |= 1 << (b % 64)
+        return " ".join(f"{w:x}" for w in reversed(words))
+
+    node(3, "Keyboard", mask(*range(1, 120)), "0", "0")  # no axes: not listed
+    node(5, "Wacom Pen", mask(0x140, 0x141, 0x14A, 0x14B), mask(0, 1, 24, 26, 27), "2")
+    mt = (0, 1, 24, 47, 53, 54, 57, 58)
+    node(12, "Touchpad", mask(272, 325, 330, 333), mask(*mt), mask(0, 2))
+    found = discover(tmp_path)
+    assert [(d.path, d.kind, d.vid_pid) for d in found] == [
+        ("/dev/input/event5", "pen", "056a:0333"),
+        ("/dev/input/event12", "touchpad", "056a:0333"),
+    ]
+    assert all(d.problem is not None and "does not exist" in d.problem for d in found)
