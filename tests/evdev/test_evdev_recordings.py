@@ -290,3 +290,14 @@ def test_discovery_from_sysfs_reports_problems(tmp_path: Path) -> None:
         ("/dev/input/event12", "touchpad", "056a:0333"),
     ]
     assert all(d.problem is not None and "does not exist" in d.problem for d in found)
+
+
+@pytest.mark.parametrize("what", ["file", "dir", "null"])
+def test_opening_something_that_is_not_an_event_node(tmp_path: Path, what: str) -> None:
+    from stiction.drivers.evdev import open_device
+
+    target = {"file": tmp_path / "x", "dir": tmp_path, "null": Path("/dev/null")}[what]
+    if what == "file":
+        target.write_text("not a device")
+    with pytest.raises(DeviceError, match=r"not an evdev input device|directory"):
+        open_device(str(target))

@@ -151,8 +151,15 @@ def _open(path: str) -> Any:
             f"{path}: permission denied; install stiction's udev rule (udev/) so the "
             "logged-in user gets access, or add yourself to the 'input' group"
         ) from None
+    except IsADirectoryError:
+        raise DeviceError(f"{path} is a directory, not an input device") from None
     except OSError as exc:
+        if exc.errno == errno.ENOTTY:
+            raise DeviceError(f"{path} is not an evdev input device (/dev/input/eventN)") from None
         raise DeviceError(f"{path}: cannot open: {exc.strerror or exc}") from None
+    except SystemError:
+        # python-evdev turns some refused ioctls into SystemError (EVIOCGVERSION, ...)
+        raise DeviceError(f"{path} is not an evdev input device (/dev/input/eventN)") from None
 
 
 class DeviceSource:
