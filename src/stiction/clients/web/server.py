@@ -90,9 +90,16 @@ async def run(
     port: int,
     seconds: float | None = None,
     ready: asyncio.Future[str] | None = None,
+    bridges: list[Bridge] | None = None,
+    announce: bool = True,
 ) -> None:
-    """Serve until cancelled, SIGINT/SIGTERM, or ``seconds`` pass."""
+    """Serve until cancelled, SIGINT/SIGTERM, or ``seconds`` pass.
+
+    ``ready`` gets the page's URL once serving; ``bridges`` (if given) gets the
+    Bridge, so an embedding program (stiction demo) can read its counters."""
     bridge = Bridge(pub, control)
+    if bridges is not None:
+        bridges.append(bridge)
     runner = web.AppRunner(make_app(bridge), access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, host, port)
@@ -109,7 +116,8 @@ async def run(
     actual = sockets[0].getsockname()[1] if sockets else port
     shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
     url = f"http://{shown}:{actual}/"
-    print(f"stiction web: open {url}  (frames from {pub})", file=sys.stderr, flush=True)
+    if announce:
+        print(f"stiction web: open {url}  (frames from {pub})", file=sys.stderr, flush=True)
     if ready is not None and not ready.done():
         ready.set_result(url)
     stop = asyncio.Event()
