@@ -17,11 +17,13 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from stiction.drivers.evdev import sizes
-from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.frames import Frame, FrameAssembler
 from stiction.drivers.evdev.recording import Recording, load
 from stiction.drivers.evdev.source import frame_samples, kind_of, slug
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
+
+_CHUNK = 4096  # events framed at a time
 
 
 class ReplaySource:
@@ -60,20 +62,25 @@ class ReplaySource:
     def kind(self) -> str:
         return kind_of(self.description)
 
-    def samples(self) -> Iterator[PenSample]:
-        asm = FrameAssembler(self.description)
-        self._assembler = asm
+    def _frames(self, asm: FrameAssembler) -> Iterator[Frame]:
+        """Frames in chunks of events: bounded memory for long recordings."""
         events = self.recording.events
-        self._stats["events"] += len(events)
-        frames = asm.feed_many(events)  # a recording is small; frame it in one pass
+        for i in range(0, len(events), _CHUNK):
+            chunk = events[i : i + _CHUNK]
+            self._stats["events"] += len(chunk)
+            yield from asm.feed_many(chunk)
         if events:
             end = asm.finish(events[-1][0], events[-1][1])
             if end is not None:
-                frames.append(end)
+                yield end
+
+    def samples(self) -> Iterator[PenSample]:
+        asm = FrameAssembler(self.description)
+        self._assembler = asm
         units = self._units
         start_wall: float | None = None
         start_t = 0.0
-        for frame in frames:
+        for frame in self._frames(asm):
             if self._closed.is_set():
                 return
             if self.realtime:
