@@ -58,8 +58,8 @@ READER = textwrap.dedent(
             print(json.dumps({{"reopen_failed": slot.state}}), flush=True)
         elif phase[0] == "absent" and replugged.is_set() and fresh:
             phase[0] = "done"
-            devs = d.devices()
-            print(json.dumps({{"reopened": slot.reopened, "devices": devs, "frame": f}}), flush=True)
+            back = {{"reopened": slot.reopened, "devices": d.devices(), "frame": f}}
+            print(json.dumps(back), flush=True)
             d.request_stop()
 
     d.on_tick = on_tick
