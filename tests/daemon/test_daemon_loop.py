@@ -341,3 +341,15 @@ def test_a_tablet_plugged_in_later_is_picked_up(endpoints: tuple[str, str]) -> N
             late.gate.set()  # type: ignore[union-attr]
     finally:
         sub.close()
+
+
+def test_a_touchpad_defaults_to_relative_mapping(
+    evdev_data: Path, endpoints: tuple[str, str]
+) -> None:
+    """A finger put down anywhere on a touchpad starts at the cursor (display centre)."""
+    spec = f"replay:{evdev_data / 'cypress-trackpad.two-finger-press.evemu'}"
+    sent = _run_virtual(endpoints, spec)
+    frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
+    first = next(c for f in frames for c in f["contacts"])
+    assert first["touch_px"] == pytest.approx([960.0, 540.0])
+    assert first["touch_m"] != [0.0, 0.0]
