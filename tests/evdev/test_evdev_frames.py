@@ -311,16 +311,6 @@ def test_random_streams_never_crash_and_contacts_stay_consistent(
     assert {x.id for x in (end.ended if end else ())} == active
 
 
-def test_hypothesis_test_can_fail() -> None:
-    """Guard: the consistency checks above do detect a duplicate id."""
-    asm = FrameAssembler(TOUCHPAD)
-    s = Stream(asm)
-    touch(s, 0, 4, 1, 1)
-    touch(s, 1, 4, 2, 2)
-    f = s.syn()
-    assert f is not None and len({c.id for c in f.contacts}) == len(f.contacts) == 1
-
-
 def test_recorded_stream_with_syn_dropped_inserted(evdev_data: Path) -> None:
     """A SYN_DROPPED inserted mid-frame into a real recording loses only that stretch."""
     rec = load(evdev_data / "cypress-trackpad.two-finger-press.evemu")
