@@ -1,0 +1,98 @@
+"""`stiction hid describe|decode`: the formats architecture.md promises, checked on real data."""
+
+from __future__ import annotations
+
+import json
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from stiction.cli import main
+
+
+def _lines(capsys: pytest.CaptureFixture[str], *argv: str) -> list[dict]:  # type: ignore[type-arg]
+    assert main(list(argv)) == 0
+    return [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+
+
+def test_describe_json_shape(hid_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (out,) = _lines(capsys, "hid", "describe", str(hid_data / "huion-hs610.hid"), "--json")
+    (report,) = out["input_reports"]
+    assert (report["report_id"], report["bit_size"]) == (10, 80)
+    keys = {
+        "usage",
+        "bit_offset",
+        "bit_size",
+        "count",
+        "logical_min",
+        "logical_max",
+        "physical_min",
+        "physical_max",
+        "unit",
+        "unit_exponent",
+        "variable",
+        "constant",
+        "relative",
+    }
+    assert all(set(f) == keys for f in report["fields"])
+    x = next(f for f in report["fields"] if f["usage"] == 0x00010030)
+    assert (x["bit_offset"], x["bit_size"], x["unit"], x["unit_exponent"]) == (16, 16, 0x33, -3)
+    # a variable item is one field per usage: Invert repeats three times
+    assert [f["usage"] for f in report["fields"]].count(0x000D003C) == 3
+
+
+def test_decode_json_lines(hid_data: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    path = hid_data / "ugee-m708-v2.hid"
+    lines = _lines(capsys, "hid", "decode", str(path), "--json")
+    assert len(lines) == 3484
+    first = lines[0]
+    assert set(first) == {"time", "report_id", "fields", "contacts"}
+    assert first["time"] == 0.0 and first["report_id"] == 7
+    assert all(re.fullmatch(r"0x[0-9a-f]{8}", k) for k in first["fields"])
+    from stiction.drivers.hid.recording import load_recording
+
+    data = load_recording(path).events[0].data
+    assert first["fields"]["0x00010030"] == [int.from_bytes(data[2:4], "little")]
+    assert first["fields"]["0x00010031"] == [int.from_bytes(data[4:6], "little")]
+    (c,) = first["contacts"]
+    assert 0 <= c["x"] <= 0.2539746 and 0 <= c["y"] <= 0.1523746
+    assert {"contact", "tip", "in_range", "pressure", "tool"} <= set(c)
+
+
+def test_decode_without_size_prints_null_contacts_and_warns_once(
+    hid_data: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    assert main(["hid", "decode", str(hid_data / "huion-hs610.hid"), "--json"]) == 0
+    captured = capsys.readouterr()
+    lines = [json.loads(x) for x in captured.out.splitlines()]
+    assert all(line["contacts"] is None for line in lines)
+    assert captured.err.count("warning") == 1 and "--size" in captured.err
+    lines = _lines(
+        capsys, "hid", "decode", str(hid_data / "huion-hs610.hid"), "--json", "--size", "254x158.75"
+    )
+    assert sum(len(line["contacts"]) for line in lines) == 2527
+    tilts = [v for line in lines for v in line["fields"]["0x000d003d"]]
+    assert min(tilts) < 0 < max(tilts)  # sign-extended (logical minimum -127)
+
+
+def test_bad_size_argument_is_a_usage_error(hid_data: Path) -> None:
+    proc = subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "stiction",
+            "hid",
+            "decode",
+            str(hid_data / "veikk-s640.hid"),
+            "--size",
+            "big",
+        ],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert proc.returncode == 2
+    assert "WIDTHxHEIGHT" in proc.stderr and "Traceback" not in proc.stderr
