@@ -353,3 +353,25 @@ def test_a_touchpad_defaults_to_relative_mapping(
     first = next(c for f in frames for c in f["contacts"])
     assert first["touch_px"] == pytest.approx([960.0, 540.0])
     assert first["touch_m"] != [0.0, 0.0]
+
+
+def test_garbage_from_a_driver_is_rejected_and_the_loop_survives(
+    endpoints: tuple[str, str],
+) -> None:
+    good = stroke(n=30)
+    garbage: list[Any] = [
+        PenSample(t=0.05, x=None, y=0.05, tip=True),  # type: ignore[arg-type]
+        PenSample(t="soon", x=0.1, y=0.05, tip=True),  # type: ignore[arg-type]
+        PenSample(t=0.06, x=0.1, y=0.05, tip=True, contact="zero"),  # type: ignore[arg-type]
+    ]
+    samples = good[:10] + garbage + good[10:]
+    d = make_daemon(endpoints, {"replay:junk": ListSource(samples)}, clock="virtual")
+    sent = _record(d)
+    try:
+        assert d.run() == 0
+        stats = d.stats()
+    finally:
+        d.close()
+    assert stats["devices"]["test-pen"]["rejected"] == 3
+    frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
+    assert frames[-1]["contacts"][-1]["phase"] == "up"

@@ -202,7 +202,17 @@ class DeviceSlot:
 
 
 def valid(s: PenSample) -> bool:
-    return math.isfinite(s.t) and math.isfinite(s.x) and math.isfinite(s.y)
+    """A sample the loop can use: finite numbers where numbers belong.
+    Anything else a driver might hand over is rejected, never raised."""
+    try:
+        return (
+            math.isfinite(s.t)
+            and math.isfinite(s.x)
+            and math.isfinite(s.y)
+            and isinstance(s.contact, int)
+        )
+    except (TypeError, ValueError, AttributeError):
+        return False
 
 
 def start_reader(slot: DeviceSlot, on_gone: Callable[[DeviceSlot], None]) -> None:

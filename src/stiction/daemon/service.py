@@ -339,11 +339,19 @@ class Daemon:
                 slot.meter.add(len(samples), t)
             try:
                 contacts = self.pipeline.step(run, t, prev_t, samples)
-            except StictionError as exc:
-                # A sample the simulator refuses must not stop the loop.
+            except Exception as exc:
+                # Nothing a device sends may stop the loop: end this device's
+                # contacts, count it, and carry on with a clean state.
                 slot.errors += 1
-                log.warning("step_failed device=%s error=%s", slot.name, exc)
-                contacts = []
+                if isinstance(exc, StictionError):
+                    log.warning("step_failed device=%s error=%s", slot.name, exc)
+                else:
+                    log.exception("step_crashed device=%s", slot.name)
+                try:
+                    contacts = self.pipeline.end_all(run)
+                except Exception:
+                    run.tracks.clear()
+                    contacts = []
             if finished:
                 # The device is gone: every contact still live ends here, once, as "up".
                 ended = self.pipeline.end_all(run)
