@@ -99,7 +99,7 @@ function render(now) {
     latencyMs: state.latencyMs,
     screenMs: state.screenMs,
   });
-  const line = `● ${s.state}   ${s.text}`;
+  const line = `● ${s.state.padEnd(9)} ${s.text.replace("\n", "\n            ")}`;
   if (statusEl.textContent !== line) {
     statusEl.textContent = line;
     statusEl.className = "";

@@ -34,5 +34,6 @@ export function statusText({ link, frames, drawRate, receiveRate, tickRate, late
   parts.push(`daemon ${fmt(tickRate, 0)} frames/s, received ${receiveRate}/s, drawn ${drawRate}/s`);
   const lat = latencyMs === null ? "tick→bridge n/a" : `tick→bridge ${fmt(latencyMs, 1)} ms`;
   parts.push(`latency ${lat} + bridge→screen ${fmt(screenMs, 1)} ms`);
-  return { state: link.state, text: parts.join("   ·   ") };
+  // Two lines: what the pen is doing, then how the pipeline is doing.
+  return { state: link.state, text: `${parts[0]}\n${parts.slice(1).join("   ·   ")}` };
 }
