@@ -380,3 +380,36 @@ def test_random_libinput_record_never_crashes(
         return
     for smp in src.samples():
         assert smp.pressure is None or 0.0 <= smp.pressure <= 1.0
+
+
+def test_multi_device_libinput_record_picks_the_touchpad(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    keyboard = textwrap.dedent(
+        """\
+          - node: /dev/input/event3
+            evdev:
+              name: "AT Translated Set 2 keyboard"
+              id: [17, 1, 1, 43841]
+              codes:
+                0: [0, 1, 4]
+                1: [1, 2, 3, 30, 31]
+              absinfo: {}
+              properties: []
+            events:
+              - evdev:
+                - [  0,      0,   1,  30,     1]
+                - [  0,      0,   0,   0,     0]
+        """
+    )
+    keyboard = textwrap.indent(keyboard, "  ")  # a list item under devices:
+    head, devices = HAND_YAML.split("devices:\n")
+    p = tmp_path / "two.yml"
+    p.write_text(head.replace("ndevices: 1", "ndevices: 2") + "devices:\n" + keyboard + devices)
+    assert load(p).description.name == "Test Synaptics"
+    assert load(p, device=0).description.name == "AT Translated Set 2 keyboard"
+    with pytest.raises(RecordingError, match="no device 5"):
+        load(p, device=5)
+    assert main(["evdev", "decode", str(p), "--json", "--index", "1"]) == 0
+    rows = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
+    assert [len(r["contacts"]) for r in rows] == [1, 1, 0]

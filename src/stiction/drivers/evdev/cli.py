@@ -52,6 +52,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     d.add_argument("--size", type=_size, metavar="WxH", help="active area in mm, if not reported")
     d.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
+    d.add_argument(
+        "--index",
+        type=int,
+        metavar="N",
+        help="device N of a multi-device libinput recording (default: the first pen/touch)",
+    )
     d.set_defaults(func=_decode)
 
     r = evsub.add_parser(
@@ -145,7 +151,7 @@ def _decode(args: argparse.Namespace) -> int:
     from stiction.drivers.evdev.recording import load
     from stiction.drivers.evdev.units import SurfaceUnits
 
-    rec = load(args.recording, args.events)
+    rec = load(args.recording, args.events, args.index)
     desc = sizes.apply(rec.description, args.size)
     asm = FrameAssembler(desc)
 

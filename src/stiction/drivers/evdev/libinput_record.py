@@ -49,9 +49,14 @@ def _ints(value: Any, n: int | None, where: str) -> list[int]:
 
 
 def parse(
-    path: Path, text: str | None = None, device: int = 0
+    path: Path, text: str | None = None, device: int | None = None
 ) -> tuple[DeviceDescription, list[Event]]:
-    """The description and events of device number `device` in the recording."""
+    """The description and events of one device of the recording.
+
+    `device` picks by index; by default the first pen, touchpad or
+    touchscreen is taken, so a `libinput record --multiple` file of a
+    tablet and a keyboard replays the tablet.
+    """
     if text is None:
         try:
             text = path.read_text(encoding="utf-8", errors="replace")
@@ -69,10 +74,19 @@ def parse(
     devices = doc.get("devices")
     if not isinstance(devices, list) or not devices:
         raise RecordingError(f"{path}: no 'devices' list")
-    if not 0 <= device < len(devices):
-        raise RecordingError(f"{path}: has {len(devices)} device(s), no device {device}")
-    dev = devices[device]
-    where = f"{path}: devices[{device}]"
+    if device is not None:
+        if not 0 <= device < len(devices):
+            raise RecordingError(f"{path}: has {len(devices)} device(s), no device {device}")
+        return _parse_device(path, devices[device], device)
+    parsed = [_parse_device(path, d, i) for i, d in enumerate(devices)]
+    for desc, events in parsed:
+        if desc.kind != "other":
+            return desc, events
+    return parsed[0]
+
+
+def _parse_device(path: Path, dev: Any, index: int) -> tuple[DeviceDescription, list[Event]]:
+    where = f"{path}: devices[{index}]"
     if not isinstance(dev, dict) or not isinstance(dev.get("evdev"), dict):
         raise RecordingError(f"{where}: no 'evdev' description")
     ev = dev["evdev"]

@@ -65,15 +65,23 @@ def _partner(path: Path, want_events: bool) -> Path:
     raise RecordingError(f"{path} has no {half}; several candidates ({names}): give one")
 
 
-def load(path: str | Path, events_path: str | Path | None = None) -> Recording:
-    """Read a recording; malformed input raises RecordingError naming the file and line."""
+def load(
+    path: str | Path, events_path: str | Path | None = None, device: int | None = None
+) -> Recording:
+    """Read a recording; malformed input raises RecordingError naming the file and line.
+
+    `device` picks one device of a multi-device libinput recording (default:
+    the first pen, touchpad or touchscreen).
+    """
     path = Path(path)
     text = _read(path)
     if libinput_record.looks_like(text) or path.suffix in (".yml", ".yaml"):
         if events_path is not None:
             raise RecordingError(f"{path} is a libinput record file; it takes no events file")
-        yaml_desc, yaml_events = libinput_record.parse(path, text)
+        yaml_desc, yaml_events = libinput_record.parse(path, text, device)
         return Recording(yaml_desc, yaml_events, path, path)
+    if device not in (None, 0):
+        raise RecordingError(f"{path} is an evemu recording: it holds one device only")
     first = evemu.parse(path, text)
     desc: DeviceDescription | None = first.description
     events = first.events
