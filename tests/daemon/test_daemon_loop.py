@@ -5,12 +5,15 @@ from __future__ import annotations
 import itertools
 import math
 import threading
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import msgpack
 import pytest
 import zmq
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from conftest import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
 from stiction import protocol
@@ -375,3 +378,43 @@ def test_garbage_from_a_driver_is_rejected_and_the_loop_survives(
     assert stats["devices"]["test-pen"]["rejected"] == 3
     frames = [msgpack.unpackb(p) for t, p in sent if t.startswith(protocol.TOPIC_FRAME)]
     assert frames[-1]["contacts"][-1]["phase"] == "up"
+
+
+_values = st.recursive(
+    st.none()
+    | st.booleans()
+    | st.integers(-(2**63), 2**63 - 1)
+    | st.floats()
+    | st.text(max_size=20),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=8,
+)
+
+
+@settings(max_examples=150)
+@given(
+    op=st.sampled_from([*protocol.CONTROL_OPS, "nope", ""]),
+    args=st.dictionaries(
+        st.sampled_from(["toml", "path", "material", "mu_s", "k", "rate", "x"]), _values, max_size=3
+    ),
+    raw=st.binary(max_size=64),
+)
+def test_control_handler_answers_anything_without_raising(
+    control_daemon: Daemon, op: str, args: dict[str, Any], raw: bytes
+) -> None:
+    assert control_daemon.control is not None
+    for payload in (raw, msgpack.packb({"v": 1, "op": op, **args})):
+        reply = msgpack.unpackb(control_daemon.control.handle(payload))
+        assert reply["v"] == 1 and isinstance(reply["ok"], bool)
+        if not reply["ok"]:
+            assert isinstance(reply["error"], str) and reply["error"]
+
+
+@pytest.fixture(scope="module")
+def control_daemon(tmp_path_factory: pytest.TempPathFactory) -> Iterator[Daemon]:
+    tmp = tmp_path_factory.mktemp("ctl")
+    d = make_daemon((f"ipc://{tmp}/p", f"ipc://{tmp}/c"), {"pen": ListSource(stroke(n=5))})
+    yield d
+    d.close()

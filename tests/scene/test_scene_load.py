@@ -153,3 +153,18 @@ def test_polygon_matches_triangle_barycentric_test(
         assert Polygon(tuple((float(p), float(q)) for p, q in pts)).contains(x, y)
     elif min(a, b, c) < -margin:
         assert not Polygon(tuple((float(p), float(q)) for p, q in pts)).contains(x, y)
+
+
+@given(st.data())
+def test_any_edit_of_a_scene_gives_a_scene_or_a_scene_error(data: st.DataObject) -> None:
+    """Delete, duplicate or replace a stretch of a good file: never another exception."""
+    text = GOOD
+    for _ in range(data.draw(st.integers(1, 3))):
+        i = data.draw(st.integers(0, len(text)))
+        j = data.draw(st.integers(i, min(len(text), i + 12)))
+        filler = data.draw(st.text(alphabet='[]{}=",.#-0123456789abcdefgnrstxyz \n', max_size=8))
+        text = text[:i] + filler + text[j:]
+    try:
+        parse_scene(text, "fuzz.toml")
+    except SceneError as exc:
+        assert str(exc).startswith("fuzz.toml")
