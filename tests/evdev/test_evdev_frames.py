@@ -407,3 +407,57 @@ def test_palm_is_not_a_contact_and_a_finger_turning_palm_ends() -> None:
     s.abs(e.ABS_MT_POSITION_X, 120)
     f = s.syn()
     assert f is not None and [(c.id, c.x) for c in f.contacts] == [(1, 120)]
+
+
+def test_hover_on_a_touchscreen_is_distance_above_zero() -> None:
+    desc = DeviceDescription(
+        name="Hover Screen",
+        properties=frozenset({e.INPUT_PROP_DIRECT}),
+        keys=frozenset({e.BTN_TOUCH}),
+        axes={**TOUCHPAD.axes, e.ABS_MT_DISTANCE: AbsAxis(0, 0, 10)},
+    )
+    assert desc.kind == "touchscreen"
+    s = Stream(FrameAssembler(desc))
+    touch(s, 0, 3, 10, 10)
+    s.abs(e.ABS_MT_DISTANCE, 4)
+    f = s.syn()
+    assert f is not None and [(c.id, c.tip) for c in f.contacts] == [(3, False)]
+    s.abs(e.ABS_MT_DISTANCE, 0)
+    f = s.syn()
+    assert f is not None and [(c.id, c.tip) for c in f.contacts] == [(3, True)]
+
+
+def test_pen_without_touch_key_or_tool_bits_uses_pressure_for_tip() -> None:
+    desc = DeviceDescription(
+        name="Bare Pen",
+        keys=frozenset({e.BTN_STYLUS}),
+        axes={
+            e.ABS_X: AbsAxis(0, 0, 1000, resolution=10),
+            e.ABS_Y: AbsAxis(0, 0, 1000, resolution=10),
+            e.ABS_PRESSURE: AbsAxis(0, 0, 1023),
+        },
+    )
+    assert desc.kind == "pen"
+    s = Stream(FrameAssembler(desc))
+    assert s.syn() is not None and s.frames[-1].contacts == ()  # nothing reported yet
+    s.abs(e.ABS_X, 500)
+    f = s.syn()
+    assert f is not None and [(c.tool, c.tip) for c in f.contacts] == [(Tool.PEN, False)]
+    s.abs(e.ABS_PRESSURE, 300)
+    s.key(e.BTN_STYLUS, 1)
+    f = s.syn()
+    assert f is not None and [(c.tip, c.buttons) for c in f.contacts] == [(True, 1)]
+
+
+def test_touchpad_buttons_reach_every_contact() -> None:
+    s = Stream(FrameAssembler(TOUCHPAD))
+    touch(s, 0, 1, 10, 10)
+    touch(s, 1, 2, 20, 20)
+    s.syn()
+    s.key(e.BTN_LEFT, 1)
+    f = s.syn()
+    assert f is not None and [c.buttons for c in f.contacts] == [1, 1]
+    s.key(e.BTN_LEFT, 0)
+    s.abs(e.ABS_MT_POSITION_X, 30)  # slot 1 is still selected
+    f = s.syn()
+    assert f is not None and [(c.x, c.buttons) for c in f.contacts] == [(10, 0), (30, 0)]
