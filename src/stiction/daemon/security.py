@@ -75,7 +75,7 @@ class Guard:
             if not self.curve.configured:
                 raise SecurityError(
                     f"{what} endpoint {endpoint} is not loopback: binding it needs CURVE keys "
-                    "([curve] secret_key and authorized_keys in the config; "
+                    "(--curve-secret-key and --curve-authorized, or [curve] in the config; "
                     "`stiction keys` makes them, docs/daemon.md shows how)"
                 )
             self._apply_curve(sock)
