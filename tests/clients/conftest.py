@@ -9,6 +9,8 @@ from __future__ import annotations
 
 import math
 import shutil
+import subprocess
+import sys
 import tempfile
 import threading
 from collections.abc import Iterator
@@ -20,6 +22,8 @@ import zmq
 
 from stiction import protocol
 from stiction.errors import ProtocolError
+
+REPO = Path(__file__).resolve().parents[2]
 
 SCENE: dict[str, Any] = {
     "name": "test scene",
@@ -240,3 +244,29 @@ def browser() -> Iterator[Any]:
         b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
         yield b
         b.close()
+
+
+STICTIOND = Path(sys.executable).with_name("stictiond")
+DEMO_SCENE = REPO / "src" / "stiction" / "scene" / "examples" / "demo.toml"
+
+
+@pytest.fixture
+def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
+    """The real daemon on the synthetic pen with the demo scene, for 20 s at most."""
+    pub, ctl = f"ipc://{short_dir}/d-pub", f"ipc://{short_dir}/d-ctl"
+    log = (short_dir / "stictiond.log").open("wb")  # a file: a full pipe would stall it
+    proc = subprocess.Popen(
+        [
+            *(str(STICTIOND), "--clock", "real", "--seconds", "20", "--no-hotplug"),
+            *("--device", "synthetic:demo", "--scene", str(DEMO_SCENE)),
+            *("--pub", pub, "--control", ctl),
+        ],
+        stdout=subprocess.DEVNULL,
+        stderr=log,
+    )
+    try:
+        yield pub, ctl
+    finally:
+        proc.terminate()
+        proc.wait(30)
+        log.close()

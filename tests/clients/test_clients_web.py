@@ -9,6 +9,7 @@ import contextlib
 import json
 import threading
 import urllib.request
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
@@ -16,7 +17,7 @@ import pytest
 
 from conftest import SCENE, FakeDaemon, make_frame, scene_message
 from stiction import protocol
-from stiction.clients import recording
+from stiction.clients import SceneMessage, Subscriber, recording
 from stiction.clients.messages import Frame
 from stiction.clients.replay import Replayer
 from stiction.clients.web import server
@@ -199,3 +200,73 @@ def test_bridge_survives_bad_frames_and_reports_a_newer_schema(
     finally:
         page.close()
         web.stop()
+
+
+def test_real_daemon_stroke_replayed_is_drawn_where_its_frames_say(
+    browser: Any, stictiond: tuple[str, str], short_dir: Path
+) -> None:
+    """Frames from the real simulator: record the daemon until the pointer is
+    stuck with a long string, cut the recording there, replay it to the page."""
+    pub, ctl = stictiond
+    messages: list[tuple[bytes, bytes, float]] = []
+    typed: list[Frame] = []
+    with Subscriber(pub, control=ctl, kinds=["frame", "scene"]) as sub:
+        for _ in range(2000):  # at most 20 s of frames
+            msg = sub.recv(timeout=10)
+            assert msg is not None, "the daemon stopped publishing"
+            if isinstance(msg, SceneMessage):
+                messages.append((protocol.TOPIC_SCENE, protocol.encode(msg.wire), 0.0))
+                continue
+            messages.append((protocol.frame_topic(msg.device), protocol.encode(msg.wire), 0.0))
+            typed.append(msg)
+            stuck = [
+                c
+                for c in msg.contacts
+                if c.phase == "stick" and c.string is not None and c.string.length_px > 30
+            ]
+            if stuck:
+                break
+        else:
+            pytest.fail("the synthetic stroke never stuck with a string longer than 30 px")
+    scene = next(recording_scene(messages))
+    recording.write(short_dir / "real.npz", messages, typed, {"scene": scene})
+    rec = recording.read(short_dir / "real.npz")
+    rpub, rctl = f"ipc://{short_dir}/rp", f"ipc://{short_dir}/rc"
+    player = Replayer(rec, rpub, rctl)
+    done = threading.Event()
+
+    def play() -> None:
+        if player.wait_for_subscriber(30):
+            player.run(fast=True)
+        player.hold(done.is_set, 120)
+
+    t = threading.Thread(target=play, daemon=True)
+    t.start()
+    web = WebServer(rpub, rctl)
+    page = browser.new_page(viewport={"width": 1000, "height": 640})
+    try:
+        page.goto(web.url)
+        last = typed[-1]
+        page.wait_for_function(f"window.stiction.drawnTick === {last.tick}", timeout=30_000)
+        c = stuck[0]
+        assert c.string is not None
+        px, py = c.pointer_px
+        dx, dy = c.string.dir
+        along = max(14.0, 0.6 * c.string.length_px)  # past the pointer's ring
+        mid = (px + dx * along, py + dy * along)
+        got = page.evaluate(PIXELS_JS, [[(round(px), round(py)), (round(mid[0]), round(mid[1]))]])
+        assert got["size"] == scene["display"]
+        assert is_black(got["px"][0]), got
+        assert is_string(got["px"][1]), got
+    finally:
+        page.close()
+        web.stop()
+        done.set()
+        t.join(30)
+        player.close()
+
+
+def recording_scene(messages: list[tuple[bytes, bytes, float]]) -> Iterator[dict[str, Any]]:
+    for topic, payload, _ in messages:
+        if topic == protocol.TOPIC_SCENE:
+            yield protocol.decode(payload)["scene"]

@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from aiohttp import WSMsgType, web
+from aiohttp import WSCloseCode, WSMsgType, web
 
 from stiction import __version__
 from stiction.clients.web.bridge import Bridge
@@ -21,55 +21,66 @@ log = logging.getLogger("stiction.clients.web")
 
 STATIC = Path(__file__).resolve().parent / "static"
 
-BRIDGE_KEY = web.AppKey("bridge", Bridge)
 
+class Site:
+    """The HTTP side: the page, its WebSocket, and a status endpoint."""
 
-async def _index(request: web.Request) -> web.FileResponse:
-    return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
+    def __init__(self, bridge: Bridge) -> None:
+        self.bridge = bridge
+        self.sockets: set[web.WebSocketResponse] = set()
 
+    async def index(self, request: web.Request) -> web.FileResponse:
+        return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
 
-async def _status(request: web.Request) -> web.Response:
-    return web.json_response(request.app[BRIDGE_KEY].summary())
+    async def status(self, request: web.Request) -> web.Response:
+        return web.json_response(self.bridge.summary())
 
+    async def websocket(self, request: web.Request) -> web.WebSocketResponse:
+        bridge = self.bridge
+        ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=1 << 16)
+        await ws.prepare(request)
+        self.sockets.add(ws)
+        page = bridge.attach()
 
-async def _ws(request: web.Request) -> web.WebSocketResponse:
-    bridge = request.app[BRIDGE_KEY]
-    ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=1 << 16)
-    await ws.prepare(request)
-    page = bridge.attach()
+        async def reader() -> None:
+            # Pages send nothing meaningful; reading notices when they go away.
+            async for msg in ws:
+                if msg.type == WSMsgType.ERROR:
+                    break
 
-    async def reader() -> None:
-        # Pages send nothing meaningful; reading notices when they go away.
-        async for msg in ws:
-            if msg.type == WSMsgType.ERROR:
-                break
+        read_task = asyncio.ensure_future(reader())
+        try:
+            await ws.send_json({"type": "hello", "version": __version__})
+            while not ws.closed and not read_task.done():
+                wake = asyncio.ensure_future(page.wake.wait())
+                done, _ = await asyncio.wait({wake, read_task}, return_when=asyncio.FIRST_COMPLETED)
+                if wake not in done:
+                    wake.cancel()
+                    break
+                for text in bridge.take(page):
+                    await ws.send_str(text)
+        except ConnectionResetError:
+            pass  # the page went away mid-send
+        finally:
+            read_task.cancel()
+            bridge.detach(page)
+            self.sockets.discard(ws)
+            await ws.close()
+        return ws
 
-    read_task = asyncio.ensure_future(reader())
-    try:
-        await ws.send_json({"type": "hello", "version": __version__})
-        while not ws.closed and not read_task.done():
-            wake = asyncio.ensure_future(page.wake.wait())
-            done, _ = await asyncio.wait({wake, read_task}, return_when=asyncio.FIRST_COMPLETED)
-            if wake not in done:
-                wake.cancel()
-                break
-            for text in bridge.take(page):
-                await ws.send_str(text)
-    except (ConnectionResetError, asyncio.CancelledError):
-        pass
-    finally:
-        read_task.cancel()
-        bridge.detach(page)
-        await ws.close()
-    return ws
+    async def close_pages(self, app: web.Application) -> None:
+        """Without this, shutdown waits for every open page's socket to time out."""
+        for ws in list(self.sockets):
+            await ws.close(code=WSCloseCode.GOING_AWAY, message=b"stiction web is stopping")
 
 
 def make_app(bridge: Bridge) -> web.Application:
+    site = Site(bridge)
     app = web.Application()
-    app[BRIDGE_KEY] = bridge
-    app.router.add_get("/", _index)
-    app.router.add_get("/ws", _ws)
-    app.router.add_get("/status", _status)
+    app.on_shutdown.append(site.close_pages)
+    app.router.add_get("/", site.index)
+    app.router.add_get("/ws", site.websocket)
+    app.router.add_get("/status", site.status)
     app.router.add_static("/static/", STATIC, append_version=False)
 
     async def bridge_task(app: web.Application) -> Any:
