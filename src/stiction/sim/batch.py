@@ -29,6 +29,7 @@ from stiction.sim.contact import (
     _BASE_PIECES,
     _MAX_ZERO_EVENTS,
     HOVER,
+    MIN_SEGMENT,
     MOVING,
     RESTING,
     STICK,
@@ -199,7 +200,7 @@ class BatchSim:
             np.copyto(S[TGTY], S[UY])
             np.copyto(S[TGTX], xs, where=good)
             np.copyto(S[TGTY], ys, where=good)
-            if h > 0.0:
+            if h > MIN_SEGMENT:
                 S[UDX] = (S[TGTX] - S[UX]) / h
                 S[UDY] = (S[TGTY] - S[UY]) / h
                 S[LEFT] = h
@@ -210,7 +211,7 @@ class BatchSim:
             if idx.size:
                 sub = S[:, idx]
                 md = self.mode[idx]
-                if h > 0.0:
+                if h > MIN_SEGMENT:
                     self._run(sub, md, h)
                 else:
                     self._jump(sub, md, good[idx])

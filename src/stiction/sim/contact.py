@@ -33,6 +33,10 @@ every few years) it counts as having come to rest. Without it a long still
 hold would creep into denormal numbers."""
 
 _MAX_ZERO_EVENTS = 16
+MIN_SEGMENT = 1e-9
+"""Seconds. Samples closer than this are the same instant: the touch jumps.
+Dividing a move by a few attoseconds of timestamp rounding would give a touch
+velocity of 1e11 m/s and nothing but round-off in the step."""
 _BASE_PIECES = 1000
 """Pieces per segment beyond 64 ticks' worth (64 * substeps) before a long gap is
 cut short: the touch is held still over such a gap and a moving pen has long
@@ -176,7 +180,7 @@ class ContactSim:
         if mode <= RESTING:
             if tip:
                 h = ts - cur
-                if h > 0.0:
+                if h > MIN_SEGMENT:
                     self._run(h, (sx - self._ux) / h, (sy - self._uy) / h, sx, sy, ts)
                 else:
                     self._jump(sx, sy, ts)
