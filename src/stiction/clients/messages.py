@@ -145,13 +145,30 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"{type(obj).__name__} is not JSON serialisable")
 
 
+def _finite(obj: Any) -> Any:
+    if isinstance(obj, float) and not math.isfinite(obj):
+        return None
+    if isinstance(obj, dict):
+        return {k: _finite(v) for k, v in obj.items()}
+    if isinstance(obj, list | tuple):
+        return [_finite(v) for v in obj]
+    return obj
+
+
 def wire_to_json(wire: Any) -> str:
     """Render a decoded wire map as compact JSON; the one msgpack->JSON rule.
 
-    Non-finite floats cannot be valid JSON, and validated frames never carry
-    them; bytes (not used by the schema) become hex rather than failing.
+    JSON has no NaN or infinity: the validated keys are always finite, but a
+    key this client does not know may not be, and becomes null rather than
+    invalid JSON (which browsers refuse to parse). Bytes, which the schema
+    does not use, become hex rather than failing.
     """
-    return json.dumps(wire, separators=(",", ":"), default=_json_default, allow_nan=False)
+    try:
+        return json.dumps(wire, separators=(",", ":"), default=_json_default, allow_nan=False)
+    except ValueError:
+        return json.dumps(
+            _finite(wire), separators=(",", ":"), default=_json_default, allow_nan=False
+        )
 
 
 def is_newer_schema(message: dict[str, Any]) -> bool:

@@ -74,6 +74,9 @@ class Bridge:
         self._last_frame_at: float | None = None
         self._started_at: float | None = None
         self._tasks: set[asyncio.Future[None]] = set()
+        self._sub: AsyncSubscriber | None = None
+        self._own_errors = 0
+        self._bad_seen = 0
         self._status_message = f"waiting for frames from {pub}"
         self._set_status("waiting", self._status_message)
 
@@ -136,13 +139,23 @@ class Bridge:
                 self.stats.scenes += 1
 
     def _error(self, why: str) -> None:
-        self.stats.errors += 1
+        self._own_errors += 1
         self.stats.last_error = why
+        self._count_errors()
         log.warning("%s", why)
+
+    def _count_errors(self) -> None:
+        """Errors seen here plus malformed messages the subscriber skipped."""
+        sub = self._sub
+        bad = sub.stats.bad if sub is not None else 0
+        self.stats.errors = self._own_errors + bad
+        if sub is not None and sub.stats.last_error and bad > self._bad_seen:
+            self.stats.last_error = sub.stats.last_error
+            self._bad_seen = bad
 
     async def run(self) -> None:
         """Read the daemon until cancelled; never raises for anything it receives."""
-        sub = AsyncSubscriber(self.pub, kinds=("frame", "scene"))
+        sub = self._sub = AsyncSubscriber(self.pub, kinds=("frame", "scene"))
         await self._fetch_snapshot()
         try:
             while True:
@@ -152,29 +165,34 @@ class Bridge:
                     self._error(str(exc))
                     self._set_status("error", str(exc))
                     continue
-                now = time.monotonic()
-                if msg is None:
-                    self._check_silence(now)
-                    continue
-                if isinstance(msg, SceneMessage):
-                    self.stats.scenes += 1
-                    self._publish("scene", self.scene_json(msg))
-                    continue
-                self.stats.frames += 1
-                if self.stats.state != "live":
-                    was_gone = self.stats.state == "gone"
-                    self._set_status("live", f"receiving frames from {self.pub}")
-                    if was_gone:  # a restarted daemon may run another scene
-                        task = asyncio.ensure_future(self._fetch_snapshot())
-                        self._tasks.add(task)
-                        task.add_done_callback(self._tasks.discard)
-                self._last_frame_at = now
-                self._publish(f"frame:{msg.device}", self.frame_json(msg, now))
-                # Other malformed input was counted by the subscriber.
-                self.stats.errors = sub.stats.bad
-                self.stats.last_error = sub.stats.last_error or self.stats.last_error
+                try:
+                    self._handle(msg)
+                except Exception as exc:  # a bug here must not stop the pages' feed
+                    log.exception("bridge: could not forward a message")
+                    self._error(f"internal error forwarding a message: {exc!r}")
         finally:
             sub.close()
+
+    def _handle(self, msg: Frame | SceneMessage | None) -> None:
+        now = time.monotonic()
+        if msg is None:
+            self._check_silence(now)
+            return
+        if isinstance(msg, SceneMessage):
+            self.stats.scenes += 1
+            self._publish("scene", self.scene_json(msg))
+            return
+        self.stats.frames += 1
+        if self.stats.state != "live":
+            was_gone = self.stats.state == "gone"
+            self._set_status("live", f"receiving frames from {self.pub}")
+            if was_gone:  # a restarted daemon may run another scene
+                task = asyncio.ensure_future(self._fetch_snapshot())
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
+        self._last_frame_at = now
+        self._publish(f"frame:{msg.device}", self.frame_json(msg, now))
+        self._count_errors()
 
     def _check_silence(self, now: float) -> None:
         if self.stats.state == "gone":
@@ -213,4 +231,5 @@ class Bridge:
         return out
 
     def summary(self) -> dict[str, Any]:
+        self._count_errors()
         return {**asdict(self.stats), "pub": self.pub, "control": self.control}

@@ -134,7 +134,12 @@ export function drawAll(canvas, scene, frames) {
   const ctx = canvas.getContext("2d");
   ctx.fillStyle = COLORS.background;
   ctx.fillRect(0, 0, canvas.width, canvas.height);
-  drawScene(ctx, scene);
+  try {
+    drawScene(ctx, scene);
+  } catch (err) { // a scene this page cannot draw must not hide the pointer
+    console.warn("cannot draw the scene", err);
+    ctx.restore();
+  }
   for (const frame of frames) {
     for (const c of frame.contacts || []) drawContact(ctx, c);
   }
