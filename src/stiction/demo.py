@@ -26,6 +26,7 @@ from typing import Any
 from stiction.errors import StictionError
 
 DEMO_SCENE = Path(__file__).resolve().parent / "scene" / "examples" / "demo.toml"
+DEFAULT_PORT = 8765
 
 
 def _daemon_command() -> list[str]:
@@ -99,11 +100,14 @@ async def _serve(pub: str, control: str, port: int, seconds: float | None) -> di
 
 def run_demo(
     *,
-    port: int = 8765,
+    port: int = DEFAULT_PORT,
+    fallback_port: bool = False,
     seconds: float | None = None,
     scene: Path = DEMO_SCENE,
     device: str = "synthetic:demo",
 ) -> int:
+    from stiction.clients.web.errors import PortInUse
+
     if not scene.is_file():
         raise StictionError(f"scene file {scene} not found")
     workdir = Path(tempfile.mkdtemp(prefix="stiction-demo-"))
@@ -129,7 +133,13 @@ def run_demo(
             flush=True,
         )
         with contextlib.suppress(KeyboardInterrupt):
-            summary = asyncio.run(_serve(pub, control, port, seconds))
+            try:
+                summary = asyncio.run(_serve(pub, control, port, seconds))
+            except PortInUse:
+                if not fallback_port:
+                    raise
+                print(f"stiction demo: port {port} is taken; using a free port instead", flush=True)
+                summary = asyncio.run(_serve(pub, control, 0, seconds))
     finally:
         signal.signal(signal.SIGTERM, previous)
         _stop(proc)
@@ -168,7 +178,12 @@ def _port(text: str) -> int:
 
 def _handle(args: argparse.Namespace) -> int:
     return run_demo(
-        port=args.port, seconds=args.seconds, scene=Path(args.scene), device=args.device
+        port=DEFAULT_PORT if args.port is None else args.port,
+        # `make demo` must not fail because 8765 is busy; an explicit --port must be honoured.
+        fallback_port=args.port is None,
+        seconds=args.seconds,
+        scene=Path(args.scene),
+        device=args.device,
     )
 
 
@@ -180,7 +195,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         description="Start stictiond on the synthetic pen with the demo scene and the web "
         "renderer; prints the address to open. Runs until Ctrl-C, or --seconds.",
     )
-    p.add_argument("--port", type=_port, default=8765, help="web page port (0: any free port)")
+    p.add_argument(
+        "--port",
+        type=_port,
+        help=f"web page port (default {DEFAULT_PORT}, or a free one if it is taken; 0: any)",
+    )
     p.add_argument("--seconds", type=_positive, help="stop after S seconds (headless runs, tests)")
     p.add_argument("--scene", default=str(DEMO_SCENE), help="scene file (default: the demo scene)")
     p.add_argument("--device", default="synthetic:demo", help="device spec for stictiond")

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import re
 import signal
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -88,3 +89,20 @@ def test_demo_page_shows_the_demo_scene_and_stops_on_ctrl_c(browser: Any) -> Non
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+
+
+def test_demo_port_in_use_is_one_line_and_leaves_no_daemon() -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        res = subprocess.run(
+            [str(STICTION), "demo", "--seconds", "5", "--port", str(port)],
+            capture_output=True,
+            text=True,
+            timeout=60,
+        )
+    assert res.returncode == 2
+    assert res.stderr.startswith(f"stiction: error: port {port}") and "Traceback" not in res.stderr
+    pid = PID.search(res.stdout)
+    assert pid and not alive(int(pid[1]))

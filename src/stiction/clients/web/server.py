@@ -15,6 +15,7 @@ from aiohttp import WSCloseCode, WSMsgType, web
 
 from stiction import __version__
 from stiction.clients.web.bridge import Bridge
+from stiction.clients.web.errors import PortInUse
 from stiction.errors import StictionError
 
 log = logging.getLogger("stiction.clients.web")
@@ -119,9 +120,7 @@ async def run(
     except OSError as exc:
         await runner.cleanup()
         if exc.errno == errno.EADDRINUSE:
-            raise StictionError(
-                f"port {port} on {host} is in use; choose another with --port"
-            ) from exc
+            raise PortInUse(f"port {port} on {host} is in use; choose another with --port") from exc
         raise StictionError(f"cannot serve on {host}:{port}: {exc}") from exc
     sockets = getattr(site._server, "sockets", None) or []
     actual = sockets[0].getsockname()[1] if sockets else port
