@@ -104,12 +104,12 @@ class AsyncSubscriber:
                 parts = fut.result()
             except zmq.Again:
                 break
-            msg = state.accept(list(parts))
-            if msg is None:
+            if state.conflate:
+                state.keep_latest(list(parts))
                 continue
-            if not state.conflate:
+            msg = state.accept(list(parts))
+            if msg is not None:
                 return msg
-            state.keep_latest(msg)
         return state.pop_pending()
 
     async def __aiter__(self) -> AsyncIterator[Message]:

@@ -132,9 +132,7 @@ class Subscriber:
                     parts = self._sock.recv_multipart(zmq.NOBLOCK)
                 except zmq.Again:
                     break
-                msg = state.accept(parts)
-                if msg is not None:
-                    state.keep_latest(msg)
+                state.keep_latest(parts)
             return state.pop_pending()
         while True:
             try:
