@@ -1,23 +1,27 @@
 """The daemon's timing against the simplest loop that could do the job.
 
-Run as ``stiction bench daemon [--json] [--seconds S]``. Four phases in one
-run, each with 10 subscriber processes (``--subscribers``):
+Run as ``stiction bench daemon [--json] [--seconds S] [--sequential]``. Three
+loops run at the same time, each in its own process, so that whatever else
+the (shared) machine is doing hits all three alike:
 
-1. bare loop: a Python loop sleeping to the same absolute 100 Hz deadlines,
-   doing nothing else (the floor for tick jitter);
-2. bare loop + raw pyzmq: the same loop publishing one msgpack message with
-   the deadline in it on a plain PUB socket (the floor for deadline-to-
-   subscriber latency);
+1. bare loop: a Python loop sleeping to absolute 100 Hz deadlines, doing
+   nothing else (the floor for tick jitter);
+2. bare loop + raw pyzmq: the same loop publishing one msgpack frame with
+   the deadline in it on a plain PUB socket to 10 subscriber processes (the
+   floor for deadline-to-subscriber latency);
 3. stictiond: the real daemon (stiction.daemon.service.Daemon, in this
    process) reading a device -- by default ``synthetic:demo``, scripted
    reports decoded by the real HID decoder, looping -- running the default
-   scene (stick-slip + string) and publishing to the same subscribers;
-4. stictiond idle: the daemon with a device that sends nothing (CPU only),
-   with the 10 subscribers and again with none.
+   scene (stick-slip + string) and publishing to its own 10 subscriber
+   processes.
+
+Then the idle daemon (a device that sends nothing), with 10 subscribers and
+with none, for CPU use. ``--sequential`` runs the two baselines one after the
+other before the daemon instead (``--baseline-seconds`` long).
 
 Prints tick jitter (start - deadline) p50/p99/max, late ticks (> half a
 period), deadline-to-subscriber latency p50/p99/max (subscriber receipt
-time minus the frame's deadline, both CLOCK_MONOTONIC), and CPU use of the
+time minus the frame's deadline, both CLOCK_MONOTONIC), and CPU use of each
 publishing process (subscribers excluded), with the ratios and differences
 the targets are stated in. Writes bench/results/daemon.{json,txt,png}
 (``daemon-<S>s.*`` for other durations).
@@ -154,6 +158,55 @@ def bare_loop(
     return jitter, late, cpu / wall * 100, start
 
 
+def _bare_child(argv: list[str]) -> None:
+    """Run one bare loop in its own process; write its results for the parent."""
+    seconds, rate, out = float(argv[0]), float(argv[1]), argv[2]
+    endpoint = argv[3] if len(argv) > 3 else None
+    sock = ctx = None
+    if endpoint:
+        import zmq
+
+        ctx = zmq.Context()
+        sock = ctx.socket(zmq.PUB)
+        sock.sndhwm = 1000
+        sock.bind(endpoint)
+    print("ready", flush=True)
+    sys.stdin.readline()  # go
+    jitter, late, cpu, start = bare_loop(seconds, rate, sock)
+    np.save(out + ".npy", jitter)
+    Path(out + ".json").write_text(json.dumps({"late": late, "cpu_pct": cpu, "start": start}))
+    if sock is not None and ctx is not None:
+        sock.close(0)
+        ctx.term()
+
+
+class BareProcess:
+    """A bare loop (optionally publishing) running beside the daemon, same load."""
+
+    def __init__(self, seconds: float, rate: float, out: str, endpoint: str | None) -> None:
+        self.out = out
+        argv = [sys.executable, __file__, "--bare-child", str(seconds), str(rate), out]
+        self.proc = subprocess.Popen(
+            argv + ([endpoint] if endpoint else []),
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            text=True,
+        )
+        assert self.proc.stdout is not None
+        if self.proc.stdout.readline().strip() != "ready":
+            raise RuntimeError("bare loop process failed to start")
+
+    def go(self) -> None:
+        assert self.proc.stdin is not None
+        self.proc.stdin.write("go\n")
+        self.proc.stdin.flush()
+
+    def result(self) -> tuple[np.ndarray, int, float, float]:
+        self.proc.wait()
+        info = json.loads(Path(self.out + ".json").read_text())
+        return np.load(self.out + ".npy"), info["late"], info["cpu_pct"], info["start"]
+
+
 class _Idle:
     """A device that is present and silent: the daemon's idle cost."""
 
@@ -208,11 +261,20 @@ def run_daemon(
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="stiction bench daemon", description=__doc__)
     ap.add_argument("--seconds", type=float, default=DEFAULT_SECONDS, help="daemon run (s)")
-    ap.add_argument("--baseline-seconds", type=float, help="each baseline run (default: --seconds)")
+    ap.add_argument(
+        "--baseline-seconds",
+        type=float,
+        help="--sequential: each baseline run (default: --seconds)",
+    )
     ap.add_argument("--idle-seconds", type=float, help="idle run (default: min(10, --seconds))")
     ap.add_argument("--subscribers", type=int, default=10)
     ap.add_argument("--rate", type=float, default=100.0)
     ap.add_argument("--device", default="synthetic:demo", help="device spec for the daemon")
+    ap.add_argument(
+        "--sequential",
+        action="store_true",
+        help="run the baselines one after the other before the daemon (default: side by side)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     import zmq
@@ -233,33 +295,50 @@ def main(argv: list[str]) -> int:
         "libzmq": zmq.zmq_version(),
     }
 
-    print(f"bare loop, {base_s:g} s ...", file=sys.stderr)
-    jit, late, cpu, _ = bare_loop(base_s, args.rate)
-    res["bare"] = {"jitter_ms": _summary(jit * 1e3), "late": late, "cpu_pct": cpu}
-
-    print(f"bare loop + raw pyzmq PUB, {base_s:g} s ...", file=sys.stderr)
-    endpoint = f"ipc://{tmp}/raw"
-    subs = Subscribers(endpoint, args.subscribers, tmp)
-    ctx = zmq.Context()
-    sock = ctx.socket(zmq.PUB)
-    sock.sndhwm = 1000
-    sock.bind(endpoint)
-    jit, late, cpu, start = bare_loop(base_s, args.rate, sock)
-    got = subs.finish()
-    sock.close(0)
-    ctx.term()
-    res["raw"] = {
-        "jitter_ms": _summary(jit * 1e3),
-        "late": late,
-        "cpu_pct": cpu,
-        "latency_ms": _latency(got, start + 0.5),
-    }
-
-    print(f"stictiond with {args.device}, {args.seconds:g} s ...", file=sys.stderr)
     pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
-    subs = Subscribers(pub, args.subscribers, tmp)
-    stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
-    got = subs.finish()
+    raw_endpoint = f"ipc://{tmp}/raw"
+    if args.sequential:
+        print(f"bare loop, {base_s:g} s ...", file=sys.stderr)
+        bare = bare_loop(base_s, args.rate)
+        print(f"bare loop + raw pyzmq PUB, {base_s:g} s ...", file=sys.stderr)
+        subs = Subscribers(raw_endpoint, args.subscribers, tmp)
+        ctx = zmq.Context()
+        sock = ctx.socket(zmq.PUB)
+        sock.sndhwm = 1000
+        sock.bind(raw_endpoint)
+        raw = bare_loop(base_s, args.rate, sock)
+        raw_got = subs.finish()
+        sock.close(0)
+        ctx.term()
+        print(f"stictiond with {args.device}, {args.seconds:g} s ...", file=sys.stderr)
+        subs = Subscribers(pub, args.subscribers, tmp)
+        stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
+        got = subs.finish()
+    else:
+        # All three side by side, so the shared machine's load hits each alike.
+        print(
+            f"stictiond with {args.device} beside a bare loop and a bare loop + raw pyzmq, "
+            f"{args.seconds:g} s ...",
+            file=sys.stderr,
+        )
+        bare_proc = BareProcess(args.seconds, args.rate, f"{tmp}/bare", None)
+        raw_proc = BareProcess(args.seconds, args.rate, f"{tmp}/raw", raw_endpoint)
+        raw_subs = Subscribers(raw_endpoint, args.subscribers, tmp)
+        subs = Subscribers(pub, args.subscribers, tmp)
+        bare_proc.go()
+        raw_proc.go()
+        stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
+        bare, raw = bare_proc.result(), raw_proc.result()
+        got = subs.finish()
+        raw_got = raw_subs.finish()
+    res["mode"] = "sequential" if args.sequential else "concurrent"
+    res["bare"] = {"jitter_ms": _summary(bare[0] * 1e3), "late": bare[1], "cpu_pct": bare[2]}
+    res["raw"] = {
+        "jitter_ms": _summary(raw[0] * 1e3),
+        "late": raw[1],
+        "cpu_pct": raw[2],
+        "latency_ms": _latency(raw_got, raw[3] + 0.5),
+    }
     res["daemon"] = {
         "jitter_ms": _summary(jit * 1e3),
         "late": stats["late_ticks"],
@@ -309,7 +388,8 @@ def _table(res: dict[str, Any]) -> str:
     b, r, d, i, t = res["bare"], res["raw"], res["daemon"], res["idle"], res["targets"]
     lines = [
         f"stictiond timing at {res['rate']:g} Hz, {res['subscribers']} subscriber processes, "
-        f"daemon {res['seconds']:g} s, baselines {res['baseline_seconds']:g} s each, "
+        f"{res['seconds']:g} s, baselines {res['mode']} "
+        f"({'same time, own processes' if res['mode'] == 'concurrent' else 'before the daemon'}), "
         f"{res['cpus']} CPUs (shared machine)",
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
     ]
@@ -373,3 +453,7 @@ def _plot(res: dict[str, Any], path: Path) -> None:
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
+
+
+if __name__ == "__main__" and len(sys.argv) > 1 and sys.argv[1] == "--bare-child":
+    _bare_child(sys.argv[2:])

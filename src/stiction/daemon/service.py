@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import logging
 import math
+import sys
 import threading
 import time
 from collections.abc import Callable
@@ -46,6 +47,8 @@ from stiction.scene.model import Scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
 log = logging.getLogger("stiction.daemon")
+
+SWITCH_INTERVAL_S = 0.0002
 
 Opener = Callable[[Spec, DeviceConfig, bool, bool], SampleSource]
 """open_source's signature: spec, its config, realtime, loop."""
@@ -275,6 +278,18 @@ class Daemon:
 
     # ------------------------------------------------------------ the loop
     def run(self) -> int:
+        assert self.publisher is not None
+        # Reader threads decode reports in Python; with the default 5 ms GIL
+        # switch interval a tick whose sleep ended could wait that long for the
+        # interpreter. A short interval bounds that wait.
+        switch = sys.getswitchinterval()
+        sys.setswitchinterval(min(switch, SWITCH_INTERVAL_S))
+        try:
+            return self._run()
+        finally:
+            sys.setswitchinterval(switch)
+
+    def _run(self) -> int:
         assert self.publisher is not None
         self._publish_scene()
         if not self.virtual:
