@@ -3,17 +3,18 @@
     stiction bench evdev [--json] [--repeat N]
 
 Every event of every recording in shared/data/evdev is turned into frames
-(one snapshot of all contacts per SYN_REPORT), starting from what python-
-evdev's C reader returns for a read() of the device: (sec, usec, type, code,
-value) tuples.
+(one snapshot of all contacts per SYN_REPORT), starting from the bytes a
+read() of the device returns (24-byte `struct input_event`s), unpacked to
+(sec, usec, type, code, value) tuples by `struct` for both paths (python-
+evdev's C reader does the same unpacking):
 
 - naive: python-evdev's own path: `read()` wraps each tuple in an
   `InputEvent`, then `evdev.categorize()` per event, dict bookkeeping keyed
   by the code names (`ecodes.ABS`, `KeyEvent.keycode`), and a list of
   contact dicts at each SYN_REPORT;
 - stiction: `FrameAssembler.feed_many()` on the tuples (the live reader's
-  path), which also keeps undo state for SYN_DROPPED, checks ranges, drops
-  palms and ends contacts;
+  path: it reads the node's bytes itself), which also keeps undo state for
+  SYN_DROPPED, checks ranges, drops palms and ends contacts;
 - stiction, samples: the same plus a PenSample in surface metres per
   contact (what the daemon receives).
 
@@ -114,13 +115,15 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
 
     rec = load(path)
     desc = sizes.apply(rec.description, (100.0, 60.0) if "synaptics" in path.name else None)
-    raw = list(rec.events)  # what evdev._input.device_read_many returns
-    events = [evdev.InputEvent(s, u, t, c, v) for s, u, t, c, v in raw]
+    from stiction.drivers.evdev.device import INPUT_EVENT
+
+    data = b"".join(INPUT_EVENT.pack(*e) for e in rec.events)  # what read() returns
+    events = [evdev.InputEvent(s, u, t, c, v) for s, u, t, c, v in rec.events]
     units = SurfaceUnits(desc)
 
     def ours() -> list[Any]:
         # exactly what DeviceSource does with each read() batch
-        return FrameAssembler(desc).feed_many(raw)
+        return FrameAssembler(desc).feed_many(list(INPUT_EVENT.iter_unpack(data)))
 
     def ours_objects() -> list[Any]:
         asm = FrameAssembler(desc)
@@ -130,7 +133,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         asm = FrameAssembler(desc)
         sample = units.sample
         n = 0
-        for f in asm.feed_many(raw):
+        for f in asm.feed_many(list(INPUT_EVENT.iter_unpack(data))):
             t = f.time
             for c in f.contacts:
                 sample(c, t)
@@ -138,7 +141,8 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         return n
 
     def naive() -> list[Any]:
-        return naive_frames(evdev.InputEvent(*t) for t in raw)  # as read() yields them
+        # python-evdev's read(): C unpacking to tuples, then an InputEvent for each
+        return naive_frames(evdev.InputEvent(*t) for t in INPUT_EVENT.iter_unpack(data))
 
     def naive_objects() -> list[Any]:
         return naive_frames(events)

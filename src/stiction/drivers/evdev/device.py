@@ -20,7 +20,6 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
-import importlib
 import logging
 import os
 import select
@@ -52,24 +51,10 @@ def _close_fds(*fds: int) -> None:
             os.close(fd)
 
 
-def _read_batch(dev: Any) -> list[Event]:
-    """One read() worth of events as (sec, usec, type, code, value) tuples.
-
-    python-evdev's public read() gets exactly these tuples from its C reader
-    (`_input.device_read_many`) and wraps each in an InputEvent, a Python
-    object the frame assembler would only unpack again; reading the tuples
-    directly halves the cost per event (bench/evdev.py). Falls back to the
-    public API if a python-evdev release moves the function.
-    """
-    if _READ_MANY is not None:
-        return list(_READ_MANY(dev.fd))
-    return [(e.sec, e.usec, e.type, e.code, e.value) for e in dev.read()]
-
-
-try:
-    _READ_MANY: Any = importlib.import_module("evdev._input").device_read_many
-except (ImportError, AttributeError):  # pragma: no cover - other python-evdev versions
-    _READ_MANY = None
+#: struct input_event: struct timeval (two native longs, as the kernel's
+#: __kernel_ulong_t on every Linux ABI but x32), u16 type, u16 code, s32 value
+INPUT_EVENT = struct.Struct("@llHHi")
+_READ_SIZE = INPUT_EVENT.size * 256
 
 
 class DeviceGone(DeviceError):
@@ -253,32 +238,49 @@ class DeviceSource:
     def batches(self) -> Iterator[list[Event]]:
         """The raw events as each read() returns them (for `stiction evdev record`).
 
-        Raises DeviceGone (a DeviceError) when the device goes away; the grab
-        is released however the iteration ends.
+        The node is read directly (`os.read` on python-evdev's fd, unpacked
+        with `struct`), not through python-evdev's read(): that one builds a
+        Python InputEvent per event, which the assembler would only unpack
+        again, and it drops the tail of a read that ends mid-event, after
+        which every later event is misframed. A kernel never returns partial
+        events, but a pty-backed node does under load (umockdev, the tests);
+        here the tail is kept for the next read and counted as
+        `partial_reads`. Raises DeviceGone (a DeviceError) when the device
+        goes away; the grab is released however the iteration ends.
         """
         with self._lock:
             if self._released or self._closed.is_set():
                 return
             self._reading = True
-        dev = self._dev
-        fd = dev.fd
+        fd = self._dev.fd
+        size = INPUT_EVENT.size
+        carry = b""
         try:
             while not self._closed.is_set():
                 ready, _, _ = select.select([fd, self._wake_r], [], [])
                 if self._wake_r in ready:
                     return
                 try:
-                    batch = _read_batch(dev)
+                    data = os.read(fd, _READ_SIZE)
                 except BlockingIOError:
                     continue
                 except OSError as exc:
                     if exc.errno in (errno.ENODEV, errno.EIO, errno.EBADF):
                         raise self._gone(exc.strerror or str(exc)) from None
                     raise DeviceError(f"{self.path}: read failed: {exc.strerror or exc}") from None
-                if not batch:
+                if not data:
                     # select said readable and read() got 0 bytes: end of file, the node
                     # was hung up (a real unplug gives ENODEV; umockdev gives EOF).
                     raise self._gone("end of file")
+                if carry:
+                    data = carry + data
+                whole = len(data) - len(data) % size
+                carry = data[whole:]
+                if carry:
+                    self._stats["partial_reads"] += 1
+                if not whole:
+                    continue
+                batch = list(INPUT_EVENT.iter_unpack(data[:whole] if carry else data))
                 self._stats["events"] += len(batch)
                 yield batch
         finally:
