@@ -300,3 +300,33 @@ def test_an_hour_long_gap_is_bounded_work() -> None:
         batch.advance(t, [x], [0.0], [True])
     assert batch.truncated_steps == 1
     assert batch.state(0).pointer_x == pytest.approx(st.pointer_x, abs=1e-12)
+
+
+def test_friction_dominated_2d_hold_never_gains_energy() -> None:
+    """Found by hypothesis: kinetic friction within 1 % of the spring force, 2-D,
+    touch held. The frozen friction direction gained 2e-5 relative energy in a step."""
+    p = Params(k=0.31622776601683794, m=7.773650302387759e-05, mu_s=0.0, mu_k=1.65625, rate=60)
+    samples = [
+        Touch(0.0, 0.0, 0.0),
+        Touch(0.144, 0.0, 0.0),
+        Touch(0.144, 0.5, -0.5),
+        Touch(0.149, 0.5, -0.5),
+        Touch(0.199, 0.575, -0.5),
+        Touch(0.199, 0.57, -0.49),
+        Touch(0.1991, 0.57, -0.4899),
+    ]
+    for integrator in ("exact", "implicit-projection"):
+        sim = ContactSim(p, integrator)
+        ticks = [k / 60 for k in range(60)]
+        i = 0
+        energies = []
+        for t in ticks:
+            batch = []
+            while i < len(samples) and samples[i].t <= t:
+                batch.append(samples[i])
+                i += 1
+            st = sim.advance(t, batch)
+            if t > samples[-1].t:
+                energies.append(energy(sim, st))
+        for e0, e1 in itertools.pairwise(energies):
+            assert e1 <= e0 * (1 + 1e-9) + 1e-18

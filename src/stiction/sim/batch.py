@@ -485,6 +485,26 @@ class BatchSim:
         py = uy - q * dy + e11 * y0y + e12 * ydy
         n2 = vnx * vnx + vny * vny
         event = ~noev | ((n2 < V_REST * V_REST) & (n2 < sp2))
+        held = (udx == 0.0) & (udy == 0.0)
+        if held.any():
+            # ContactSim._gains_energy: a held-touch step (or step to a rest
+            # event) that would gain energy is the pen at rest where it is.
+            k, m = self._k, self._m
+            sx0, sy0 = s[UX] - s[PX], s[UY] - s[PY]
+            sx1, sy1 = s[UX] - px, s[UY] - py
+            s02 = sx0 * sx0 + sy0 * sy0
+            e0 = m * sp2 + k * s02
+            e1 = m * np.where(noev, n2, 0.0) + k * (sx1 * sx1 + sy1 * sy1)
+            d = delta_v(s)
+            gain = held & (e1 > e0 * (1.0 + 1e-12) + 2.0 * k * d * (2.0 * np.sqrt(s02) + d))
+            if gain.any():
+                event = event | gain
+                t_used = np.where(gain, 0.0, t_used)
+                px = np.where(gain, s[PX], px)
+                py = np.where(gain, s[PY], py)
+                ux = np.where(gain, s[UX], ux)
+                uy = np.where(gain, s[UY], uy)
+                noev = noev & ~gain
         return (
             px,
             py,

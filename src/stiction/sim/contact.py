@@ -413,8 +413,16 @@ class ContactSim:
         if tau is None:
             ux = self._ux + udx * h
             uy = self._uy + udy * h
-            self._px = ux - q * dx + c11 * y0x + c12 * ydx
-            self._py = uy - q * dy + c11 * y0y + c12 * ydy
+            px = ux - q * dx + c11 * y0x + c12 * ydx
+            py = uy - q * dy + c11 * y0y + c12 * ydy
+            if udx == 0.0 and udy == 0.0 and self._gains_energy(px, py, vnx, vny):
+                # Touch held: the true motion only loses energy. In 2-D with
+                # friction close to the spring force the frozen direction can
+                # do a little positive work; there the pen is all but stopped,
+                # so it comes to rest here (never on a straight stroke).
+                self._vx = self._vy = 0.0
+                return 0.0, True
+            self._px, self._py = px, py
             self._ux, self._uy = ux, uy
             self._dx, self._dy = dx, dy
             if vnx * vnx + vny * vny < V_REST * V_REST and vnx * vnx + vny * vny < sp2:
@@ -430,11 +438,26 @@ class ContactSim:
             e11, e12 = 1.0, 0.0
         ux = self._ux + udx * tau
         uy = self._uy + udy * tau
-        self._px = ux - q * dx + e11 * y0x + e12 * ydx
-        self._py = uy - q * dy + e11 * y0y + e12 * ydy
+        px = ux - q * dx + e11 * y0x + e12 * ydx
+        py = uy - q * dy + e11 * y0y + e12 * ydy
+        if udx == 0.0 and udy == 0.0 and self._gains_energy(px, py, 0.0, 0.0):
+            self._vx = self._vy = 0.0  # as above: at rest where it is
+            return 0.0, True
+        self._px, self._py = px, py
         self._ux, self._uy = ux, uy
         self._vx = self._vy = 0.0
         return tau, True
+
+    def _gains_energy(self, px: float, py: float, vx: float, vy: float) -> bool:
+        """Would moving to (p, v) raise 0.5 m v^2 + 0.5 k s^2 (touch held still)?"""
+        sx0, sy0 = self._ux - self._px, self._uy - self._py
+        sx1, sy1 = self._ux - px, self._uy - py
+        m, k = self._m, self._k
+        s02 = sx0 * sx0 + sy0 * sy0
+        e0 = m * (self._vx * self._vx + self._vy * self._vy) + k * s02
+        e1 = m * (vx * vx + vy * vy) + k * (sx1 * sx1 + sy1 * sy1)
+        d = self._delta()  # the stretch is a difference of absolute coordinates
+        return e1 > e0 * (1.0 + 1e-12) + 2.0 * k * d * (2.0 * math.sqrt(s02) + d)
 
     def _accel(
         self,
