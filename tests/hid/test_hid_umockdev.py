@@ -230,3 +230,39 @@ def test_uclogic_v1_tablet_recorded_reports_through_init(tmp_path: Path, hid_dat
         assert {k: g[k] for k in keys} == {k: e[k] for k in keys}
         assert g["x"] == pytest.approx(e["x"], abs=1e-5)
         assert g["y"] == pytest.approx(e["y"], abs=1e-5)
+
+
+def test_record_writes_what_the_device_sent(tmp_path: Path, hid_data: Path) -> None:
+    """`stiction hid record` on a mocked node: a hid-recorder file that reads back identically."""
+    from stiction.drivers.hid.recording import parse_recording
+
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    reports = [ev.data for ev in rec.events[:120]]
+    files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports)
+    cmd = [
+        _umockdev_run(),
+        "--device",
+        str(files.device),
+        "--ioctl",
+        f"{files.dev_node}={files.ioctl}",
+        "--script",
+        f"{files.dev_node}={files.script}",
+        "--",
+        sys.executable,
+        "-m",
+        "stiction",
+        "hid",
+        "record",
+        files.dev_node,
+        "--count",
+        str(len(reports)),
+    ]
+    proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    back = parse_recording(proc.stdout, "recorded")
+    assert (back.name, back.bus, back.vid, back.pid) == (rec.name, 3, rec.vid, rec.pid)
+    assert back.descriptor == rec.descriptor
+    assert [ev.data for ev in back.events] == reports
+    times = [ev.t for ev in back.events]
+    assert times[0] == 0.0 and times == sorted(times)
+    assert f"{len(reports)} reports recorded" in proc.stderr

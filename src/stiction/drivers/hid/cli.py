@@ -163,6 +163,14 @@ def _read(args: argparse.Namespace) -> int:
     return 0
 
 
+def _record(args: argparse.Namespace) -> int:
+    from stiction.drivers.hid.record import record
+
+    n = record(args.device, sys.stdout, count=args.count, seconds=args.seconds)
+    print(f"# {n} reports recorded", file=sys.stderr)
+    return 0
+
+
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     hid = sub.add_parser("hid", help="inspect HID report descriptors and recordings")
     hsub = hid.add_subparsers(dest="hid_command", metavar="SUBCOMMAND", required=True)
@@ -191,3 +199,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="active area in mm when the descriptor and device table lack it",
     )
     r.set_defaults(func=_read)
+    rec = hsub.add_parser(
+        "record",
+        help="write a live device's descriptor and reports in hid-recorder format",
+        description="Record a hidraw device to stdout (N:, I:, R:, E: lines) until Ctrl-C, "
+        "--count reports or --seconds.",
+    )
+    rec.add_argument("device", help="/dev/hidrawN, or vid:pid")
+    rec.add_argument("--count", type=int, default=0, help="stop after N reports")
+    rec.add_argument("--seconds", type=float, default=0.0, help="stop after S seconds")
+    rec.set_defaults(func=_record)

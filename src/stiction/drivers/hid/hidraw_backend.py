@@ -46,6 +46,18 @@ def _hidraw() -> Any:
     return hidraw
 
 
+# hidapi's bus_type -> the Linux bus number hid-recorder writes (BUS_USB, ...).
+LINUX_BUS = {1: 0x03, 2: 0x05, 3: 0x18, 4: 0x1C}
+
+
+def bus_of(path: bytes) -> int:
+    """The Linux bus number of a hidraw node (0 when hidapi does not say)."""
+    for d in _enumerate():
+        if d["path"] == path:
+            return LINUX_BUS.get(d.get("bus_type", 0), 0)
+    return 0
+
+
 def _enumerate() -> list[dict[str, Any]]:
     """One entry per hidraw node (hidapi lists one per top-level collection)."""
     seen: dict[bytes, dict[str, Any]] = {}
@@ -54,7 +66,8 @@ def _enumerate() -> list[dict[str, Any]]:
     return list(seen.values())
 
 
-def _resolve(path_or_vidpid: str) -> tuple[bytes, int, int, str]:
+def resolve(path_or_vidpid: str) -> tuple[bytes, int, int, str]:
+    """(hidraw path, vid, pid, product name) for a path or the pen interface of a vid:pid."""
     m = _VIDPID.match(path_or_vidpid.strip())
     devices = _enumerate()
     if m:
@@ -78,7 +91,8 @@ def _resolve(path_or_vidpid: str) -> tuple[bytes, int, int, str]:
     return path, 0, 0, ""
 
 
-def _open_handle(path: bytes) -> Any:
+def open_handle(path: bytes) -> Any:
+    """An open hidapi handle, or a DeviceError saying how to get access."""
     dev = _hidraw().device()
     try:
         dev.open_path(path)
@@ -90,7 +104,8 @@ def _open_handle(path: bytes) -> Any:
     return dev
 
 
-def _descriptor(dev: Any, path: bytes) -> bytes:
+def read_descriptor(dev: Any, path: bytes) -> bytes:
+    """The report descriptor as the kernel holds it (HIDIOCGRDESC)."""
     try:
         return bytes(dev.get_report_descriptor())
     except (OSError, ValueError) as exc:
@@ -201,12 +216,12 @@ def open_hidraw(
     `usb_backend` is the pyusb backend object used for vendor
     initialisation over USB (None: libusb).
     """
-    path, vid, pid, product = _resolve(path_or_vidpid)
-    dev = _open_handle(path)
+    path, vid, pid, product = resolve(path_or_vidpid)
+    dev = open_handle(path)
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
         entry = lookup(vid, pid)
-        raw = entry.descriptor if entry and entry.descriptor else _descriptor(dev, path)
+        raw = entry.descriptor if entry and entry.descriptor else read_descriptor(dev, path)
         init = _vendor_init(dev, entry, usb_backend)
         desc = parse_descriptor(init.descriptor or raw)
         stream = ReportStream(
@@ -227,7 +242,7 @@ def _probe(d: dict[str, Any]) -> DeviceInfo | None:
     name = d.get("product_string") or d.get("manufacturer_string") or ""
     vid, pid = d["vendor_id"], d["product_id"]
     try:
-        dev = _open_handle(path)
+        dev = open_handle(path)
     except DeviceError:
         # Without access only hidapi's top-level usage page is known.
         digitizer = d.get("usage_page") in (0x0D, 0xFF0D)
@@ -241,7 +256,7 @@ def _probe(d: dict[str, Any]) -> DeviceInfo | None:
             "no read access: install the udev rule from udev/ and re-plug the device",
         )
     try:
-        raw = _descriptor(dev, path)
+        raw = read_descriptor(dev, path)
     except DeviceError as exc:
         return DeviceInfo(spath, "hidraw", vid, pid, name, "other", str(exc))
     finally:

@@ -117,8 +117,13 @@ def format_recording(rec: Recording) -> Iterator[str]:
     yield f"I: {rec.bus:x} {rec.vid:04x} {rec.pid:04x}"
     yield f"R: {len(rec.descriptor)} {rec.descriptor.hex(' ')}"
     for ev in rec.events:
-        sec = int(ev.t)
-        usec = round((ev.t - sec) * 1e6)
-        if usec == 1_000_000:
-            sec, usec = sec + 1, 0
-        yield f"E: {sec:06d}.{usec:06d} {len(ev.data)} {ev.data.hex(' ')}"
+        yield format_event(ev)
+
+
+def format_event(ev: Event) -> str:
+    """One `E: <sec>.<usec> <length> <hex bytes>` line."""
+    sec = int(ev.t)
+    usec = round((ev.t - sec) * 1e6)
+    if usec == 1_000_000:
+        sec, usec = sec + 1, 0
+    return f"E: {sec:06d}.{usec:06d} {len(ev.data)} {ev.data.hex(' ')}"
