@@ -151,11 +151,9 @@ class ReportDescriptor:
 class _Globals:
     usage_page: int = 0
     logical_min: int = 0
-    logical_max: int = 0
-    logical_max_raw: int = 0
+    logical_max_raw: int = 0  # the sign of a maximum depends on its minimum: read at use
     logical_max_size: int = 0
     physical_min: int = 0
-    physical_max: int = 0
     physical_max_raw: int = 0
     physical_max_size: int = 0
     unit: int = 0
