@@ -1,7 +1,9 @@
-"""A live /dev/input/eventN read through python-evdev.
+"""A live /dev/input/eventN: python-evdev for the device, its bytes read directly.
 
 What a well-behaved evdev client does, and this one does:
 
+- reads whole `struct input_event`s and keeps a partial one for the next
+  read instead of misframing the rest of the stream (see `batches()`);
 - asks the kernel for CLOCK_MONOTONIC event times (EVIOCSCLOCKID, as libinput
   does), so sample times share the daemon's clock; if the node refuses, the
   default CLOCK_REALTIME stays and `clock` says so;
