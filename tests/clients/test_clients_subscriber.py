@@ -175,7 +175,9 @@ def test_daemon_restart_is_only_a_gap(transport: str, endpoints: tuple[str, str]
                 second.send(make_frame(tick))
             reader.join(30)
             assert got == list(range(5))
-            assert sub.stats.restarts == 1 and sub.stats.bad == 0
+            st = sub.stats
+            assert st.disconnects == 1 and st.reconnects == 1
+            assert st.missed == 0 and st.bad == 0
         finally:
             reader.join(30)
             second.close()

@@ -5,11 +5,13 @@ counting, conflation and snapshot behaviour: both use stream.StreamState."""
 from __future__ import annotations
 
 import asyncio
+import contextlib
 from collections.abc import AsyncIterator, Iterable, Sequence
 from typing import cast
 
 import zmq
 import zmq.asyncio
+from zmq.utils.monitor import parse_monitor_message
 
 from stiction import protocol
 from stiction.clients import control
@@ -54,6 +56,7 @@ class AsyncSubscriber:
             except zmq.ZMQError as exc:
                 self._sock.close()
                 raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
+        self._monitor = self._sock.get_monitor_socket(zmq.EVENT_CONNECTED | zmq.EVENT_DISCONNECTED)
         self._control = control
         self._snapshot_timeout = snapshot_timeout
         self._ready: list[Message] = []
@@ -95,6 +98,12 @@ class AsyncSubscriber:
     def _next_available(self) -> Message | None:
         # Non-blocking reads on an asyncio socket complete at once or raise Again.
         state = self._state
+        while True:
+            try:
+                fut = cast("asyncio.Future[list[bytes]]", self._monitor.recv_multipart(zmq.NOBLOCK))
+                state.connection_event(parse_monitor_message(fut.result())["event"])
+            except zmq.Again:
+                break
         limit = DRAIN_LIMIT if state.conflate else 1 << 62
         for _ in range(limit):
             # On an asyncio socket a NOBLOCK read returns a future that is
@@ -128,6 +137,9 @@ class AsyncSubscriber:
                     return
 
     def close(self) -> None:
+        with contextlib.suppress(zmq.ZMQError):
+            self._sock.disable_monitor()
+        self._monitor.close(linger=0)
         self._sock.close(linger=0)
 
     async def __aenter__(self) -> AsyncSubscriber:

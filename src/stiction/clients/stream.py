@@ -44,6 +44,11 @@ class SubscriberStats:
     """Ticks never seen: gaps in a device's tick sequence (slow reader, reconnect)."""
     restarts: int = 0
     """Times a device's ticks went backwards: the daemon restarted."""
+    disconnects: int = 0
+    """Connections to a daemon lost (it stopped, crashed, or its machine vanished)."""
+    reconnects: int = 0
+    """Connections (re-)established after a loss; frames continue without the
+    gap being counted as missed, as the daemon may have restarted."""
     stale: int = 0
     """Frames dropped because the snapshot already covered them (clone pattern)."""
     last_error: str | None = None
@@ -87,6 +92,7 @@ class StreamState:
         self._scene_after: int | None = None
         self._pending: dict[bytes, tuple[list[bytes], int]] = {}
         self._replaced = 0
+        self._lost = False
         self._bad_logged = 0
 
     # -- per message -----------------------------------------------------------
@@ -165,6 +171,22 @@ class StreamState:
                 self.stats.missed += max(0, frame.tick - last - 1 - self._replaced)
         self._last_tick[dev] = frame.tick
         return True
+
+    # -- connection events (from the socket monitor) ---------------------------
+
+    def connection_event(self, event: int) -> None:
+        """Feed ZMQ_EVENT_CONNECTED / DISCONNECTED: after a reconnect the tick
+        sequence may start anywhere (a restarted daemon that ran a while before
+        ZeroMQ's backoff let us in), so it is re-learnt rather than compared."""
+        import zmq
+
+        if event == zmq.EVENT_DISCONNECTED:
+            self.stats.disconnects += 1
+            self._lost = True
+        elif event == zmq.EVENT_CONNECTED and self._lost:
+            self._lost = False
+            self.stats.reconnects += 1
+            self._last_tick.clear()
 
     # -- clone pattern ---------------------------------------------------------
 

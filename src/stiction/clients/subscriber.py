@@ -12,11 +12,13 @@ would overwrite each other. Here the latest frame is kept per device.
 
 from __future__ import annotations
 
+import contextlib
 import time
 from collections.abc import Iterable, Iterator, Sequence
 from typing import TYPE_CHECKING, Any
 
 import zmq
+from zmq.utils.monitor import parse_monitor_message
 
 from stiction import protocol
 from stiction.clients import control
@@ -90,6 +92,9 @@ class Subscriber:
         except zmq.ZMQError as exc:
             self._sock.close()
             raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
+        self._monitor: zmq.Socket[Any] = self._sock.get_monitor_socket(
+            zmq.EVENT_CONNECTED | zmq.EVENT_DISCONNECTED
+        )
         self._ready: list[Message] = []
         if control is not None:
             reply = control_request(control, snapshot_timeout, self._ctx)
@@ -124,8 +129,17 @@ class Subscriber:
                 msg = self._next_available()
                 return msg
 
+    def _connection_events(self) -> None:
+        while True:
+            try:
+                raw = self._monitor.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            self._state.connection_event(parse_monitor_message(raw)["event"])
+
     def _next_available(self) -> Message | None:
         state = self._state
+        self._connection_events()
         if state.conflate:
             for _ in range(DRAIN_LIMIT):
                 try:
@@ -181,6 +195,9 @@ class Subscriber:
         return ContactTable.from_frames(self.frames(count, seconds, idle))
 
     def close(self) -> None:
+        with contextlib.suppress(zmq.ZMQError):
+            self._sock.disable_monitor()
+        self._monitor.close(linger=0)
         self._sock.close(linger=0)
 
     def __enter__(self) -> Subscriber:
