@@ -8,7 +8,9 @@ Every recorded input report of shared/data/hid is decoded three ways:
   `HidField.get_values()` for each field): the naive alternative;
 - stiction one report at a time (`ReportDecoder.decode`, the daemon's path);
 - stiction in batch: the whole recording as a (reports, bytes) array
-  (`ReportDecoder.decode_batch`), timed without and with building the array.
+  (`ReportDecoder.decode_batch`), timed without and with building the array;
+- and, for reference, the daemon's whole path from report to PenSamples
+  (`ReportStream.feed`: decoding, units, contact tracking, counters).
 
 Times are the minimum over repeats (the machine is shared; the minimum is
 the least disturbed run). Writes bench/results/hid.{json,txt,png}.
@@ -95,7 +97,21 @@ def _bench_recording(path: Path, repeat: int, sample: int) -> dict[str, Any] | N
         for rid, arr in build().items():
             decoders[rid].decode_batch(arr)
 
-    t_ht = _best(hidtools, max(1, repeat // 2)) / len(ht_sample)
+    from stiction.drivers.hid.devices import lookup
+    from stiction.drivers.hid.stream import ReportStream
+    from stiction.errors import DeviceError
+
+    def to_samples() -> None:
+        stream = ReportStream(desc, rec.name, (0.2, 0.1), lookup(rec.vid, rec.pid))
+        for i, data in enumerate(reports):
+            stream.feed(float(i), data)
+
+    try:
+        ReportStream(desc, rec.name, (0.2, 0.1), lookup(rec.vid, rec.pid))
+        t_stream: float | None = _best(to_samples, max(1, repeat // 2)) / len(reports)
+    except DeviceError:
+        t_stream = None
+    t_ht = _best(hidtools, repeat) / len(ht_sample)
     t_us = _best(ours, repeat) / len(reports)
     t_batch = _best(batch, repeat * 4)
     t_batch_build = _best(batch_with_build, repeat)
@@ -109,6 +125,7 @@ def _bench_recording(path: Path, repeat: int, sample: int) -> dict[str, Any] | N
         "batch_seconds": t_batch,
         "batch_reports_per_s": len(reports) / t_batch,
         "batch_with_array_build_reports_per_s": len(reports) / t_batch_build,
+        "stream_us_per_report": None if t_stream is None else t_stream * 1e6,
     }
 
 
@@ -135,6 +152,10 @@ def _table(rows: list[dict[str, Any]], total: dict[str, Any]) -> str:
     lines.append(
         f"batch: {total['batch_reports_per_s'] / 1e6:.1f} million reports/s "
         f"(target >= {TARGET_BATCH / 1e6:.0f} million: {'met' if ok_batch else 'NOT met'})"
+    )
+    lines.append(
+        f"the daemon's whole path, report -> PenSamples (ReportStream.feed): "
+        f"{total['stream_us_per_report']:.2f} us per report"
     )
     return "\n".join(lines)
 
@@ -192,6 +213,9 @@ def main(argv: list[str]) -> int:
     t_us = sum(r["us_per_report"] * r["reports"] for r in rows)
     t_batch = sum(r["batch_seconds"] for r in rows)
     t_build = sum(r["reports"] / r["batch_with_array_build_reports_per_s"] for r in rows)
+    streamed = [r for r in rows if r["stream_us_per_report"] is not None]
+    t_stream = sum(r["stream_us_per_report"] * r["reports"] for r in streamed)
+    n_stream = sum(r["reports"] for r in streamed)
     total = {
         "recording": "all (pooled)",
         "reports": n,
@@ -200,6 +224,7 @@ def main(argv: list[str]) -> int:
         "ratio": (t_ht / n_ht) / (t_us / n),
         "batch_reports_per_s": n / t_batch,
         "batch_with_array_build_reports_per_s": n / t_build,
+        "stream_us_per_report": t_stream / n_stream,
     }
     result = {
         "hidtools_us_per_report": total["hidtools_us_per_report"],
@@ -207,6 +232,7 @@ def main(argv: list[str]) -> int:
         "ratio": total["ratio"],
         "batch_reports_per_s": total["batch_reports_per_s"],
         "batch_with_array_build_reports_per_s": total["batch_with_array_build_reports_per_s"],
+        "stream_us_per_report": total["stream_us_per_report"],
         "targets": {"ratio": TARGET_RATIO, "batch_reports_per_s": TARGET_BATCH},
         "recordings": rows,
         "machine": {"python": platform.python_version(), "cpu_count": __import__("os").cpu_count()},
