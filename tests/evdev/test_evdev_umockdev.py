@@ -476,3 +476,29 @@ def test_describe_a_live_device(evdev_data: Path, tmp_path: Path) -> None:
     assert info["size_source"] == "kernel"
     assert info["size_m"] == pytest.approx([(59152 - 400) / 200 / 1000, (33448 - 400) / 200 / 1000])
     assert info["axes"]["ABS_TILT_X"] == [-64, 63, 57.0]
+
+
+CHOPPED_READ_SCRIPT = textwrap.dedent(
+    """
+    import itertools, json, os, sys
+    real_read = os.read
+    os.read = lambda fd, n: real_read(fd, min(n, 37))  # every read ends mid-event
+    from stiction.drivers.evdev.cli import frame_json
+    from stiction.drivers.evdev.device import DeviceSource
+    src = DeviceSource(sys.argv[1])
+    frames = [frame_json(src._units, f) for f in itertools.islice(src.frames(), int(sys.argv[2]))]
+    print(json.dumps({"frames": frames, "stats": src.stats()}))
+    src.close()
+    """
+)
+
+
+def test_reads_that_end_mid_event_do_not_misframe(evdev_data: Path, tmp_path: Path) -> None:
+    expected = _expected_frames(evdev_data / "cypress-trackpad.two-finger-press.evemu")
+    files = write(load(evdev_data / "cypress-trackpad.two-finger-press.evemu"), tmp_path)
+    argv = [stiction_cmd()[0], "-c", CHOPPED_READ_SCRIPT, files.node, str(len(expected))]
+    proc = run_under_umockdev([files], argv)
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["frames"] == expected
+    assert out["stats"]["partial_reads"] > 100 and out["stats"]["events"] == 278
