@@ -171,9 +171,23 @@ def run_under_umockdev(
     for f in files:
         cmd += ["--evemu-events", f"{f.node}={f.events}"]
     cmd += ["--", *argv]
-    return subprocess.run(
-        cmd, capture_output=True, text=True, timeout=timeout, check=False, cwd=REPO
+    proc = subprocess.Popen(
+        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
     )
+    try:
+        out, err = proc.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        # SIGTERM first: umockdev-run then removes its temporary root (SIGKILL leaves it)
+        proc.terminate()
+        try:
+            out, err = proc.communicate(timeout=10)
+        except subprocess.TimeoutExpired:
+            proc.kill()
+            out, err = proc.communicate()
+        raise AssertionError(
+            f"timed out after {timeout} s: {argv}\nstdout: {out[-2000:]}\nstderr: {err[-2000:]}"
+        ) from None
+    return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
 
 
 def stiction_cmd(*args: str) -> list[str]:
