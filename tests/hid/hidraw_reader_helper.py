@@ -16,10 +16,13 @@ from __future__ import annotations
 import json
 import sys
 import threading
+import time
 from dataclasses import asdict
 
 from stiction.drivers.hid import discover, open_hidraw
 from stiction.errors import DeviceError
+
+STALL_S = 10.0  # no report for this long: give up waiting (the test then fails cleanly)
 
 
 def main() -> int:
@@ -40,7 +43,11 @@ def main() -> int:
                 backend = HuionUsbBackend({100: v1_answer(x, y, p, lpi)}, vid=vid, pid=pid)
             else:
                 backend = HuionUsbBackend({200: V2}, vid=vid, pid=pid)
-    src = open_hidraw(device, usb_backend=backend)
+    try:
+        src = open_hidraw(device, usb_backend=backend)
+    except DeviceError as exc:
+        print(json.dumps({"open_error": str(exc)}))
+        return 0
     print(json.dumps({"kind": src.kind, "size": src.surface_size, "name": src.name}), flush=True)
     out: list[str] = []
     failure: list[str] = []
@@ -61,8 +68,15 @@ def main() -> int:
     t.start()
     until_error = "--until-error" in sys.argv
     reached = False
+    last, last_change = -1, time.monotonic()
     while not done.wait(0.01):
-        if not reached and src.stats().get("reports", 0) >= wanted:
+        got = src.stats().get("reports", 0)
+        if got != last:
+            last, last_change = got, time.monotonic()
+        elif not reached and time.monotonic() - last_change > STALL_S:
+            print(json.dumps({"stalled_at": got}), flush=True)  # the device sent no more
+            break
+        if not reached and got >= wanted:
             reached = True
             if not until_error:
                 break

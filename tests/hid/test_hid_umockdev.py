@@ -266,3 +266,45 @@ def test_record_writes_what_the_device_sent(tmp_path: Path, hid_data: Path) -> N
     times = [ev.t for ev in back.events]
     assert times[0] == 0.0 and times == sorted(times)
     assert f"{len(reports)} reports recorded" in proc.stderr
+
+
+def test_output_report_init_from_a_user_table(
+    tmp_path: Path, hid_data: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A user's table entry makes the backend send an output report before reading.
+
+    umockdev replays the script in order: the reports come only after the
+    program wrote exactly the expected bytes.
+    """
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    reports = [ev.data for ev in rec.events[:60]]
+    switch = bytes.fromhex("02b00400000000000000")
+    files = write_mock(
+        tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports, expect_writes=[switch]
+    )
+    table = tmp_path / "hid-devices.toml"
+    table.write_text(
+        f'[[device]]\nid = "{rec.vid:04x}:{rec.pid:04x}"\ninit = "output:{switch.hex()}"\n'
+        'source = "test"\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))  # inherited by the subprocess
+    lines = _run(tmp_path, files, len(reports))
+    assert lines[-1]["stats"]["reports"] == len(reports)
+    assert lines[-1]["error"] is None
+
+
+def test_failing_feature_report_init_is_a_clear_error(
+    tmp_path: Path, hid_data: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """umockdev answers no HIDIOCSFEATURE: the init fails, open_hidraw says which and why."""
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, [])
+    table = tmp_path / "hid-devices.toml"
+    table.write_text(
+        f'[[device]]\nid = "{rec.vid:04x}:{rec.pid:04x}"\nname = "XP-Pen test"\n'
+        'init = "feature:0202"\nsource = "test"\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    lines = _run(tmp_path, files, 0)
+    (err,) = [x["open_error"] for x in lines if "open_error" in x]
+    assert err.startswith("XP-Pen test: vendor initialisation (feature:0202) failed")

@@ -4,7 +4,8 @@ The three files (see shared/design/testing.md and umockdev's
 script-format.txt): a `.umockdev` sysfs/udev description (hidraw node ->
 hid device with HID_ID/HID_NAME/report_descriptor -> USB interface -> USB
 device), an `.ioctl` file answering HIDIOCGRDESCSIZE/HIDIOCGRDESC, and a
-`.script` file with one `r` (read) line per report.
+`.script` file with one `r` (read) line per report, after any `w` (write)
+lines the program must send first (umockdev replays the script in order).
 """
 
 from __future__ import annotations
@@ -46,6 +47,7 @@ def write_mock(
     reports: list[bytes],
     delay_ms: int = 1,
     interface: int = 0,
+    expect_writes: list[bytes] | None = None,
 ) -> MockFiles:
     node = f"hidraw{NODE}"
     usb_dev = "/devices/pci0000:00/0000:00:14.0/usb1/1-3"
@@ -111,6 +113,8 @@ A: serial=
     )
     script = directory / f"{node}.script"
     with script.open("wb") as fh:
+        for data in expect_writes or []:
+            fh.write(b"w 0 " + _escape(data) + b"\n")  # the program must write exactly this
         for data in reports:
             fh.write(b"r %d " % delay_ms + _escape(data) + b"\n")
     return MockFiles(device, ioctl, script, f"/dev/{node}")

@@ -7,6 +7,7 @@ clear error naming the entry, not a device that silently misbehaves.
 
 from __future__ import annotations
 
+import os
 import tomllib
 from dataclasses import dataclass, field
 from functools import cache
@@ -128,5 +129,34 @@ def builtin_table() -> dict[tuple[int, int], DeviceEntry]:
     return parse_table(text, str(Path(__file__).with_name("devices.toml")))
 
 
+USER_TABLE_ENV = "STICTION_HID_DEVICES"
+
+
+def user_table_path() -> Path:
+    """Where a user's own entries live: $STICTION_HID_DEVICES, else the XDG config dir."""
+    env = os.environ.get(USER_TABLE_ENV)
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(base) / "stiction" / "hid-devices.toml"
+
+
+def user_table() -> dict[tuple[int, int], DeviceEntry]:
+    """The user's entries (same format), read on every lookup so edits apply at once.
+
+    Like libinput's local quirks: a device can be made to work without
+    touching the installed package; an entry here replaces the built-in one.
+    """
+    path = user_table_path()
+    try:
+        text = path.read_text("utf-8")
+    except FileNotFoundError:
+        return {}
+    except OSError as exc:
+        raise DeviceError(f"cannot read the device table {path}: {exc}") from None
+    return parse_table(text, str(path))
+
+
 def lookup(vid: int, pid: int) -> DeviceEntry | None:
-    return builtin_table().get((vid, pid))
+    """The entry for a device: the user's table first, then the built-in one."""
+    return user_table().get((vid, pid)) or builtin_table().get((vid, pid))

@@ -143,14 +143,16 @@ def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init
     kind, _, hexdata = entry.init.partition(":")
     data = bytes.fromhex(hexdata)
     try:
-        if kind == "feature":
-            dev.send_feature_report(data)
-        else:
-            dev.write(data)
-    except OSError as exc:
+        # hidapi reports failure by returning -1 (and sometimes by raising)
+        sent = dev.send_feature_report(data) if kind == "feature" else dev.write(data)
+        reason = dev.error() if sent < 0 else None
+    except (OSError, ValueError) as exc:
+        sent, reason = -1, str(exc)
+    if sent < 0:
         raise DeviceError(
-            f"{entry.name}: vendor initialisation ({entry.init}) failed: {exc}"
-        ) from None
+            f"{entry.name}: vendor initialisation ({entry.init}) failed: "
+            f"{reason or 'the device refused the report'}"
+        )
     return _Init()
 
 
