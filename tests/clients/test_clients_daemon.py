@@ -107,10 +107,10 @@ def test_a_daemon_restart_is_only_a_gap(short_dir: Path) -> None:
     # Frames the old daemon sent before it stopped may still arrive first.
     ticks = before + after
     jumps = [i for i in range(1, len(ticks)) if ticks[i] != ticks[i - 1] + 1]
-    assert len(jumps) == 1 and ticks[jumps[0]] < ticks[jumps[0] - 1], ticks
+    assert len(jumps) == 1, ticks  # backwards or forwards: the new daemon's own count
     new = ticks[jumps[0] :]
     assert new == list(range(new[0], new[0] + len(new)))
-    # The new daemon counts ticks from its own start; the subscriber saw the
-    # connection go and come back and did not count the jump as missed frames.
+    # The subscriber saw the connection go and come back and did not count the
+    # jump to the new daemon's ticks as missed frames.
     st = sub.stats
     assert st.disconnects >= 1 and st.reconnects >= 1 and st.missed == 0 and st.bad == 0
