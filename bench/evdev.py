@@ -108,6 +108,7 @@ def naive_frames(events: Iterable[Any]) -> list[list[dict[str, Any]]]:
 
 def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     import evdev
+
     from stiction.drivers.evdev import sizes
     from stiction.drivers.evdev.frames import FrameAssembler
     from stiction.drivers.evdev.recording import load

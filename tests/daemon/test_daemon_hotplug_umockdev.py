@@ -25,8 +25,8 @@ sys.path.insert(0, str(EVDEV_TESTS))
 
 from evdev_mockfiles import stiction_cmd, write  # noqa: E402
 
+from stiction.drivers.evdev.playback import ReplaySource  # noqa: E402
 from stiction.drivers.evdev.recording import load  # noqa: E402
-from stiction.drivers.evdev.replay import ReplaySource  # noqa: E402
 
 READER = textwrap.dedent(
     """

@@ -72,7 +72,7 @@ def test_virtual_clock_replay_is_byte_identical_and_ends_by_itself(
 
 
 def _replay_samples(path: Path) -> list[PenSample]:
-    from stiction.drivers.evdev.replay import open_replay
+    from stiction.drivers.evdev.playback import open_replay
 
     src = open_replay(path, realtime=False)
     try:

@@ -32,6 +32,7 @@ from dataclasses import dataclass, field
 from typing import NamedTuple
 
 from evdev import ecodes
+
 from stiction.drivers.evdev.description import (
     EV_ABS,
     EV_KEY,

@@ -364,7 +364,7 @@ def test_random_libinput_record_never_crashes(
 ) -> None:
     import yaml
 
-    from stiction.drivers.evdev.replay import ReplaySource
+    from stiction.drivers.evdev.playback import ReplaySource
     from stiction.errors import StictionError
 
     p = tmp_path_factory.mktemp("rnd") / "x.yml"

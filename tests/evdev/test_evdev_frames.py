@@ -5,10 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from evdev import ecodes as e
 from hypothesis import given
 from hypothesis import strategies as st
 
-from evdev import ecodes as e
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
 from stiction.drivers.evdev.recording import load

@@ -204,8 +204,8 @@ class VirtualClock:
 
 
 def test_realtime_replay_waits_for_recorded_times(evdev_data: Path) -> None:
+    from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.evdev.recording import load as load_rec
-    from stiction.drivers.evdev.replay import ReplaySource
 
     vc = VirtualClock()
     src = ReplaySource(
@@ -253,7 +253,7 @@ def test_package_replay_factory_survives_submodule_import(evdev_data: Path) -> N
 
     import stiction.drivers.evdev as pkg
 
-    importlib.import_module("stiction.drivers.evdev.replay")
+    importlib.import_module("stiction.drivers.evdev.playback")
     src = pkg.replay(evdev_data / "cypress-trackpad.two-finger-press.evemu", None, False)
     assert src.kind == "touchpad" and len(list(src.samples())) == 69
 

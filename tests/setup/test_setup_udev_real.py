@@ -22,9 +22,9 @@ import subprocess
 from pathlib import Path
 
 import pytest
+from evdev import ecodes
 from setup_mocks import Node, evdev_node, hidraw_node
 
-from evdev import ecodes
 from stiction.drivers.evdev.description import DeviceDescription
 from stiction.drivers.evdev.recording import load as load_evdev
 from stiction.drivers.hid.recording import load_recording

@@ -115,7 +115,7 @@ def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> Sa
             from stiction.drivers.hid.replay import open_replay as hid_replay
 
             return hid_replay(path, realtime=realtime, size_m=size)
-        from stiction.drivers.evdev.replay import open_replay as evdev_replay
+        from stiction.drivers.evdev.playback import open_replay as evdev_replay
 
         size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
         return evdev_replay(path, spec.extra, realtime=realtime, size_mm=size_mm)

@@ -166,6 +166,7 @@ def _size_fix(info: DeviceInfo, config: Path) -> str:
 def _evdev_lacks_size(path: str, size_mm: tuple[float, float] | None) -> bool:
     """True if, with the size table and `size_mm` applied, X/Y still have no resolution."""
     import evdev
+
     from stiction.drivers.evdev import sizes
     from stiction.drivers.evdev.device import describe
 

@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
     from stiction.drivers.evdev.device import DeviceSource
-    from stiction.drivers.evdev.replay import ReplaySource
+    from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.info import DeviceInfo
 
 __all__ = ["discover", "open_device", "replay"]
@@ -32,7 +32,7 @@ def replay(
     way. `size_mm` (width, height of the active area) is needed only for a
     device that reports no resolution and is not in the device table.
     """
-    from stiction.drivers.evdev.replay import open_replay
+    from stiction.drivers.evdev.playback import open_replay
 
     return open_replay(path, events_path, realtime=realtime, size_mm=size_mm)
 

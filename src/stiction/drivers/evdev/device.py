@@ -34,6 +34,7 @@ from collections.abc import Iterator
 from typing import Any
 
 from evdev import ecodes
+
 from stiction.drivers.evdev import sizes
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler

@@ -14,6 +14,7 @@ import math
 from dataclasses import dataclass
 
 from evdev import ecodes
+
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import Contact
 from stiction.drivers.sample import PenSample

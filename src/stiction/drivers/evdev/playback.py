@@ -8,10 +8,8 @@ can check pacing without sleeping.
 
 from __future__ import annotations
 
-import sys
 import threading
 import time
-import types
 from collections import Counter
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -110,26 +108,3 @@ def open_replay(
     size_mm: tuple[float, float] | None = None,
 ) -> ReplaySource:
     return ReplaySource(load(path, events_path), realtime=realtime, size_mm=size_mm)
-
-
-class _CallableModule(types.ModuleType):
-    """Keeps ``stiction.drivers.evdev.replay(...)`` callable after this module is imported.
-
-    Importing a submodule sets the package attribute of the same name to the
-    module, which would shadow the package's `replay()` factory (the contract
-    of stiction.drivers.source) for everyone; calling the module does what
-    the factory does, so both spellings keep working.
-    """
-
-    def __call__(
-        self,
-        path: str | Path,
-        events_path: str | Path | None = None,
-        realtime: bool = False,
-        *,
-        size_mm: tuple[float, float] | None = None,
-    ) -> ReplaySource:
-        return open_replay(path, events_path, realtime=realtime, size_mm=size_mm)
-
-
-sys.modules[__name__].__class__ = _CallableModule
