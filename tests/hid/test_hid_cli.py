@@ -96,3 +96,18 @@ def test_bad_size_argument_is_a_usage_error(hid_data: Path) -> None:
     )
     assert proc.returncode == 2
     assert "WIDTHxHEIGHT" in proc.stderr and "Traceback" not in proc.stderr
+
+
+def test_decode_prints_huge_fields_as_hex(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A 32752-bit field (found by fuzzing) must not break JSON output (no 4300-digit ints)."""
+    raw = bytes.fromhex("05 0d 09 02 a1 01 85 35 75 08 96 fe 0f 19 35 81 02 c0")
+    report = b"\x35" + b"\xff" * 4094
+    f = tmp_path / "huge.hid"
+    f.write_text(
+        f"N: huge\nI: 3 1 2\nR: {len(raw)} {raw.hex(' ')}\nE: 0.0 {len(report)} {report.hex(' ')}\n"
+    )
+    (line,) = _lines(capsys, "hid", "decode", str(f), "--json")
+    (value,) = line["fields"]["0x000d0035"]
+    assert value == hex((1 << 32752) - 1)

@@ -22,6 +22,11 @@ def _size(text: str) -> tuple[float, float]:
     return w / 1000.0, h / 1000.0
 
 
+def _json_int(v: int) -> int | str:
+    """Values beyond 64 bits (vendor blobs read as one field) print as hex strings."""
+    return v if -(1 << 63) <= v < (1 << 64) else hex(v)
+
+
 def _field_json(f: Any) -> dict[str, Any]:
     return {
         "usage": f.usage,
@@ -102,7 +107,9 @@ def _decode(args: argparse.Namespace) -> int:
             )
             obj["fields"] = {}
         else:
-            obj["fields"] = {f"0x{u:08x}": v for u, v in dec.values(ev.data).items()}
+            obj["fields"] = {
+                f"0x{u:08x}": [_json_int(x) for x in v] for u, v in dec.values(ev.data).items()
+            }
         if stream is None:
             obj["contacts"] = None
         else:

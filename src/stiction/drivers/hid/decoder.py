@@ -126,11 +126,13 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
             i = j
             continue
         need_int = True
+        # hex literals: a padding field merged from thousands of elements can
+        # be thousands of bits wide, beyond Python's limit for decimal ints
         mask = (1 << e.bit_size) - 1
-        expr = f"((v >> {e.bit_offset}) & {mask})" if e.bit_offset else f"(v & {mask})"
+        expr = f"((v >> {e.bit_offset}) & {mask:#x})" if e.bit_offset else f"(v & {mask:#x})"
         if e.signed:
             sign = 1 << (e.bit_size - 1)
-            expr = f"(({expr} ^ {sign}) - {sign})"
+            expr = f"(({expr} ^ {sign:#x}) - {sign:#x})"
         parts.append(f"({expr},)")
         i += 1
     lines = ["def decode(d):"]
