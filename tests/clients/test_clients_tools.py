@@ -3,6 +3,9 @@
 from __future__ import annotations
 
 import json
+import signal
+import subprocess
+import sys
 import threading
 from pathlib import Path
 from typing import Any
@@ -222,3 +225,27 @@ def test_replay_publishes_extra_keys_unchanged(endpoints: tuple[str, str], short
     rec_mod.write(short_dir / "x.npz", msgs, [frame], {})
     rec = rec_mod.read(short_dir / "x.npz")
     assert next(rec.frames()).wire["future_key"] == {"a": 1}
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGINT])
+def test_record_writes_the_file_when_stopped_by_a_signal(
+    daemon: FakeDaemon, short_dir: Path, sig: signal.Signals
+) -> None:
+    out = short_dir / f"sig-{sig.name}.npz"
+    proc = subprocess.Popen(
+        [
+            *(str(Path(sys.executable).with_name("stiction")), "record", daemon.pub_endpoint),
+            *("--out", str(out), "--control", daemon.control_endpoint),
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    daemon.wait_subscribers(2)  # it is recording
+    for f in stroke(5):
+        daemon.send(f)
+    proc.send_signal(sig)
+    _, err = proc.communicate(timeout=30)
+    assert proc.returncode == 0, err
+    rec = rec_mod.read(out)
+    assert rec.meta["scene"] == SCENE and rec.table.frame_count <= 5
+    assert f"to {out}" in err

@@ -58,19 +58,20 @@ def _listen(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
-    from stiction.clients.record import record, report, stop_on_sigterm
+    from stiction.clients.record import record, report, stop_on_signals
 
     ctl = None if args.no_control else (args.control or default_control(args.endpoint))
-    result = record(
-        args.endpoint,
-        args.out,
-        control_endpoint=ctl,
-        count=args.count,
-        seconds=args.seconds,
-        idle=args.idle,
-        devices=args.device or None,
-        stop=stop_on_sigterm(),
-    )
+    with stop_on_signals() as stop:
+        result = record(
+            args.endpoint,
+            args.out,
+            control_endpoint=ctl,
+            count=args.count,
+            seconds=args.seconds,
+            idle=args.idle,
+            devices=args.device or None,
+            stop=stop,
+        )
     report(result)
     return 0
 

@@ -7,12 +7,13 @@ start; a daemon without one still gets recorded, and the file says so.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import signal
 import sys
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import asdict, dataclass
 from datetime import UTC, datetime
 from pathlib import Path
@@ -22,6 +23,7 @@ from typing import Any
 from stiction import __version__, protocol
 from stiction.clients import control, recording
 from stiction.clients.messages import Frame, SceneMessage
+from stiction.clients.stream import SubscriberStats
 from stiction.clients.subscriber import Subscriber
 from stiction.errors import ProtocolError, RecordingError
 
@@ -89,13 +91,14 @@ def record(
     scenes: list[dict[str, Any]] = []
     t0 = last_t = time.monotonic()
     end = None if seconds is None else t0 + seconds
-    sub = Subscriber(
-        endpoint,
-        devices=devices,
-        kinds=("frame", "scene"),
-        control=control_endpoint if reachable else None,
-    )
+    sub: Subscriber | None = None
     try:
+        sub = Subscriber(
+            endpoint,
+            devices=devices,
+            kinds=("frame", "scene"),
+            control=control_endpoint if reachable else None,
+        )
         while count is None or len(frames) < count:
             if stop is not None and stop.is_set():
                 break
@@ -117,10 +120,11 @@ def record(
                 frames.append(msg)
             messages.append((topic, protocol.encode(msg.wire), last_t - t0))
     except KeyboardInterrupt:
-        pass
+        pass  # Ctrl-C ends a recording; what was received is still written
     finally:
-        stats = sub.stats
-        sub.close()
+        stats = sub.stats if sub is not None else SubscriberStats()
+        if sub is not None:
+            sub.close()
     if meta.get("scene") is None and scenes:
         meta["scene"] = scenes[0]["scene"]
     meta["scene_changes"] = scenes
@@ -136,16 +140,25 @@ def record(
     )
 
 
-def stop_on_sigterm() -> threading.Event:
-    """SIGTERM ends a recording the way Ctrl-C does: the file is still written."""
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[threading.Event]:
+    """Ctrl-C and SIGTERM end a recording at the next message boundary, wherever
+    the recorder is (also while it still asks the daemon for metadata); the
+    file is written either way. The previous handlers come back afterwards."""
     stop = threading.Event()
 
     def handler(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    if threading.current_thread() is threading.main_thread():
-        signal.signal(signal.SIGTERM, handler)
-    return stop
+    if threading.current_thread() is not threading.main_thread():
+        yield stop
+        return
+    previous = {sig: signal.signal(sig, handler) for sig in (signal.SIGTERM, signal.SIGINT)}
+    try:
+        yield stop
+    finally:
+        for sig, old in previous.items():
+            signal.signal(sig, old)
 
 
 def report(result: RecordResult) -> None:
