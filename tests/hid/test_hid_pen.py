@@ -367,3 +367,11 @@ def test_uclogic_inverted_in_range_from_the_table(
     assert sum(s.tip for s in samples) == touching
     assert sum(s.in_range and not s.tip for s in samples) == hovering
     assert all(s.in_range for s in samples if s.tip)
+
+
+@pytest.mark.parametrize(
+    "name", ["contour-rollermouse-red", "microsoft-keyboard-045e-0773", "wacom-penpartner"]
+)
+def test_devices_without_pen_or_touch_reports_are_refused(hid_data: Path, name: str) -> None:
+    with pytest.raises(DeviceError, match="no pen, touch screen or touchpad report"):
+        replay(hid_data / f"{name}.hid", realtime=False)

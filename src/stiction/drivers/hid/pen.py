@@ -152,9 +152,9 @@ def _size_error(device: str, f: Field, which: str) -> DeviceError:
     return DeviceError(
         f"{device}: the report descriptor gives no physical size for {which} "
         f"(unit {unit_name(f.unit)}, physical {f.physical_min}..{f.physical_max}), so its "
-        "coordinates cannot be converted to metres; add the device's active area to the "
-        "device table (src/stiction/drivers/hid/devices.toml) or pass its size "
-        "(e.g. --size 254x158.8 in millimetres)"
+        "coordinates cannot be converted to metres; give its active area: size_mm in "
+        "~/.config/stiction/hid-devices.toml (see docs/devices.md), surface_size (metres) "
+        "in the daemon's [[device]] config, or --size WxH in millimetres (e.g. --size 254x158.8)"
     )
 
 

@@ -14,6 +14,7 @@ from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
 from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
 from stiction.drivers.sample import PenSample
+from stiction.errors import DeviceError
 
 log = logging.getLogger(__name__)
 
@@ -61,6 +62,14 @@ class ReportStream:
         if size_m is None and entry is not None:
             size_m = entry.size_m
         self.mappings = build_mappings(desc, device, size_m, pen_reports, aliases)
+        if not self.mappings:
+            apps = sorted({f"0x{r.application:08x}" for r in desc.input_reports.values()})
+            raise DeviceError(
+                f"{device}: no pen, touch screen or touchpad report in its descriptor "
+                f"(input report applications: {', '.join(apps) or 'none'}); if it is a "
+                "tablet whose pen sits in other reports, its device table entry can name "
+                "them (pen_reports, usage_aliases)"
+            )
         self.numbered = desc.numbered
         self.known_ids = set(desc.input_reports)
         self.kind = device_kind(desc, pen_reports)
