@@ -308,3 +308,24 @@ def test_failing_feature_report_init_is_a_clear_error(
     lines = _run(tmp_path, files, 0)
     (err,) = [x["open_error"] for x in lines if "open_error" in x]
     assert err.startswith("XP-Pen test: vendor initialisation (feature:0202) failed")
+
+
+def test_discover_lists_a_huion_in_firmware_mode_without_a_problem(
+    tmp_path: Path, hid_data: Path
+) -> None:
+    """Its descriptor lacks a size, but opening it initialises it: no problem to report."""
+    rec = load_recording(hid_data / "huion-hs610.hid")
+    files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, [])
+    lines = _run(tmp_path, files, 0, "--discover", "--huion-usb")
+    (info,) = [x["discover"] for x in lines if "discover" in x]
+    assert (info["kind"], info["problem"], info["vid"], info["pid"]) == ("pen", None, 0x256C, 0x6D)
+
+
+def test_discover_explains_a_missing_size(tmp_path: Path, hid_data: Path) -> None:
+    rec = load_recording(hid_data / "huion-hs610.hid")
+    files = write_mock(tmp_path, rec.name, 0x1234, 0x5678, rec.descriptor, [])  # no table entry
+    lines = _run(tmp_path, files, 0, "--discover")
+    (info,) = [x["discover"] for x in lines if "discover" in x]
+    assert info["kind"] == "pen"
+    assert "no physical size" in info["problem"] and "--size" in info["problem"]
+    assert any("open_error" in x for x in lines)  # and opening it says the same

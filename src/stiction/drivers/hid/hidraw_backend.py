@@ -270,15 +270,13 @@ def _probe(d: dict[str, Any]) -> DeviceInfo | None:
         return DeviceInfo(spath, "hidraw", vid, pid, name, "other", f"bad descriptor: {exc}")
     kind = device_kind(desc, entry.pen_reports if entry else frozenset())
     problem = None
-    if kind != "other":
+    # A device the table initialises gets its real descriptor and size only
+    # when opened (the Huion string read switches its mode): not a problem.
+    if kind != "other" and not (entry and entry.init == "huion-string-descriptor"):
         try:
             ReportStream(desc, name, None, entry)
         except DeviceError as exc:
-            problem = (
-                "needs vendor initialisation when opened"
-                if entry and entry.init
-                else str(exc).split(": ", 1)[-1]
-            )
+            problem = str(exc).split(": ", 1)[-1]
     return DeviceInfo(spath, "hidraw", vid, pid, name, kind, problem)
 
 
