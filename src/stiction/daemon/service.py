@@ -26,6 +26,7 @@ from stiction import __version__, protocol
 from stiction.daemon.clock import Clock, RealClock, Schedule, VirtualClock
 from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
+    ClockMap,
     DeviceConfig,
     DeviceSlot,
     Spec,
@@ -143,7 +144,9 @@ class Daemon:
             self.slots.append(slot)
             try:
                 self._install(slot, self.opener(spec, cfg, not self.virtual, not self.virtual))
-            except StictionError as exc:
+            except Exception as exc:
+                # A real device that cannot be opened now is watched for; a
+                # replay or synthetic stroke that cannot be opened is the user's error.
                 if spec.finite:
                     raise
                 log.warning("device_absent spec=%s error=%s (watching for it)", cfg.spec, exc)
@@ -191,6 +194,7 @@ class Daemon:
         slot.kind = kind
         slot.surface_size = size
         slot.run = DeviceRun(mapping)
+        slot.clock = ClockMap()  # a reopened device's clock is learnt afresh
         slot.state = "open"
         slot.went_away = False
         if self.virtual:
