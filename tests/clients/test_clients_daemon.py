@@ -10,11 +10,13 @@ from typing import Any
 
 import numpy as np
 import pytest
+from clients_support import STICTIOND
 
-from conftest import STICTIOND
 from stiction import cli, protocol
 from stiction.clients import Frame, SceneMessage, Subscriber, recording
 from stiction.clients.replay import Replayer
+
+pytest_plugins = ["clients_fixtures"]
 
 pytestmark = pytest.mark.slow
 

@@ -13,6 +13,8 @@ from typing import Any
 
 import pytest
 
+pytest_plugins = ["clients_fixtures"]
+
 pytestmark = pytest.mark.slow
 
 STICTION = Path(sys.executable).with_name("stiction")

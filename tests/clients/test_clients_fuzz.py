@@ -8,14 +8,16 @@ import math
 from typing import Any
 
 import msgpack
+from clients_support import make_contact, make_frame, scene_message
 from hypothesis import given
 from hypothesis import strategies as st
 
-from conftest import make_contact, make_frame, scene_message
 from stiction import protocol
 from stiction.clients.messages import Frame, SceneMessage, wire_to_json
 from stiction.clients.stream import StreamState
 from stiction.errors import ProtocolError
+
+pytest_plugins = ["clients_fixtures"]
 
 scalars = (
     st.none()

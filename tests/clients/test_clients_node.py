@@ -15,6 +15,8 @@ import pytest
 
 from stiction.clients import Frame, Subscriber
 
+pytest_plugins = ["clients_fixtures"]
+
 pytestmark = [pytest.mark.node, pytest.mark.slow]
 
 REPO = Path(__file__).resolve().parents[2]
@@ -91,7 +93,7 @@ def test_node_client_decodes_what_python_decodes(node: str, short_dir: Path) -> 
 
 
 def test_node_client_refuses_a_newer_schema(node: str, daemon: object) -> None:
-    from conftest import FakeDaemon, make_frame
+    from clients_support import FakeDaemon, make_frame
 
     assert isinstance(daemon, FakeDaemon)
     client = subprocess.Popen(

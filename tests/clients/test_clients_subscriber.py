@@ -11,8 +11,8 @@ import msgpack
 import numpy as np
 import pytest
 import zmq
+from clients_support import SCENE, FakeDaemon, make_contact, make_frame, scene_message, stroke
 
-from conftest import SCENE, FakeDaemon, make_contact, make_frame, scene_message, stroke
 from stiction import protocol
 from stiction.clients import (
     AsyncSubscriber,
@@ -22,6 +22,8 @@ from stiction.clients import (
     Subscriber,
 )
 from stiction.errors import ProtocolError, StictionError
+
+pytest_plugins = ["clients_fixtures"]
 
 
 def free_port() -> int:

@@ -12,14 +12,16 @@ from typing import Any
 
 import numpy as np
 import pytest
+from clients_support import SCENE, FakeDaemon, make_frame, scene_message, stroke
 
-from conftest import SCENE, FakeDaemon, make_frame, scene_message, stroke
 from stiction import cli, protocol
 from stiction.clients import Frame, SceneMessage, Subscriber, control
 from stiction.clients import recording as rec_mod
 from stiction.clients.record import record
 from stiction.clients.replay import Replayer
 from stiction.errors import ProtocolError, RecordingError
+
+pytest_plugins = ["clients_fixtures"]
 
 
 def run_in_thread(fn: Any, *args: Any, **kwargs: Any) -> tuple[threading.Thread, dict[str, Any]]:

@@ -14,13 +14,15 @@ from pathlib import Path
 from typing import Any
 
 import pytest
+from clients_support import SCENE, FakeDaemon, make_frame, scene_message
 
-from conftest import SCENE, FakeDaemon, make_frame, scene_message
 from stiction import protocol
 from stiction.clients import SceneMessage, Subscriber, recording
 from stiction.clients.messages import Frame
 from stiction.clients.replay import Replayer
 from stiction.clients.web import server
+
+pytest_plugins = ["clients_fixtures"]
 
 pytestmark = pytest.mark.browser
 

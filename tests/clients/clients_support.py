@@ -1,23 +1,19 @@
-"""A stand-in daemon for client tests: real ZeroMQ sockets, real protocol.encode().
+"""Helpers for the client tests: a stand-in daemon on real ZeroMQ sockets that
+sends real protocol.encode()d messages, frame builders and a test scene.
 
-It publishes through XPUB so a test can wait until a subscriber's subscription
-has arrived (no sleeps: after that, every message sent reaches the subscriber),
-and can answer control requests like stictiond's REP endpoint.
+The stand-in publishes through XPUB so a test can wait until a subscriber's
+subscription has arrived (no sleeps: after that, every message sent reaches
+the subscriber), and answers control requests like stictiond's REP endpoint.
 """
 
 from __future__ import annotations
 
 import math
-import shutil
-import subprocess
 import sys
-import tempfile
 import threading
-from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
-import pytest
 import zmq
 
 from stiction import protocol
@@ -201,26 +197,6 @@ class FakeDaemon:
             self.ctx.term()
 
 
-@pytest.fixture
-def short_dir() -> Iterator[Path]:
-    """ipc:// paths must stay under ~100 bytes; pytest's tmp_path can be longer."""
-    d = Path(tempfile.mkdtemp(prefix="stc-", dir="/tmp"))
-    yield d
-    shutil.rmtree(d, ignore_errors=True)
-
-
-@pytest.fixture
-def endpoints(short_dir: Path) -> tuple[str, str]:
-    return f"ipc://{short_dir}/pub", f"ipc://{short_dir}/ctl"
-
-
-@pytest.fixture
-def daemon(endpoints: tuple[str, str]) -> Iterator[FakeDaemon]:
-    d = FakeDaemon(*endpoints)
-    yield d
-    d.close()
-
-
 CHROMIUM = "/usr/bin/chromium"
 CHROMIUM_ARGS = [
     "--no-sandbox",
@@ -232,41 +208,5 @@ CHROMIUM_ARGS = [
 ]
 
 
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    """Per module: playwright's sync API holds an event loop while it runs, which
-    would stop later tests from calling asyncio.run()."""
-    if not Path(CHROMIUM).exists():
-        pytest.fail(f"{CHROMIUM} not found: install Debian's chromium (make sysdeps)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
-
-
 STICTIOND = Path(sys.executable).with_name("stictiond")
 DEMO_SCENE = REPO / "src" / "stiction" / "scene" / "examples" / "demo.toml"
-
-
-@pytest.fixture
-def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
-    """The real daemon on the synthetic pen with the demo scene, for 20 s at most."""
-    pub, ctl = f"ipc://{short_dir}/d-pub", f"ipc://{short_dir}/d-ctl"
-    log = (short_dir / "stictiond.log").open("wb")  # a file: a full pipe would stall it
-    proc = subprocess.Popen(
-        [
-            *(str(STICTIOND), "--clock", "real", "--seconds", "20", "--no-hotplug"),
-            *("--device", "synthetic:demo", "--scene", str(DEMO_SCENE)),
-            *("--pub", pub, "--control", ctl),
-        ],
-        stdout=subprocess.DEVNULL,
-        stderr=log,
-    )
-    try:
-        yield pub, ctl
-    finally:
-        proc.terminate()
-        proc.wait(30)
-        log.close()
