@@ -165,7 +165,11 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
         assert px[5] == px[6] and px[5][:3] != [250, 250, 250], px[5]
         status = page.inner_text("#status")
         assert "stick" in status and "string 96.0 px" in status and "sticky" in status
-        page.screenshot(path=str(short_dir / "stroke.png"))
+        # "f": full screen at one canvas pixel per device pixel.
+        page.keyboard.press("f")
+        page.wait_for_function("document.body.classList.contains('exact')", timeout=10_000)
+        assert page.evaluate("[view.style.width, view.style.height]") == ["400px", "300px"]
+        assert not page.is_visible("#status")
         # When the stream stops the page says so, in words.
         page.wait_for_function("window.stiction.status === 'gone'", timeout=30_000)
         assert page.is_visible("#banner")

@@ -36,7 +36,11 @@ function sizeCanvas() {
     w = Math.round(screen.width * devicePixelRatio);
     h = Math.round(screen.height * devicePixelRatio);
   }
-  if (canvas.width !== w || canvas.height !== h) { canvas.width = w; canvas.height = h; }
+  if (canvas.width !== w || canvas.height !== h) {
+    canvas.width = w;
+    canvas.height = h;
+    if (document.fullscreenElement) fitExactly();
+  }
 }
 
 function showBanner(text) {
@@ -106,6 +110,21 @@ function render(now) {
     statusEl.classList.add(s.state);
   }
 }
+
+// "f": full screen with one canvas pixel per device pixel, as an experiment
+// display needs (the scene's display size should then equal the screen's).
+function fitExactly() {
+  const exact = document.fullscreenElement !== null;
+  document.body.classList.toggle("exact", exact);
+  canvas.style.width = exact ? `${canvas.width / devicePixelRatio}px` : "";
+  canvas.style.height = exact ? `${canvas.height / devicePixelRatio}px` : "";
+}
+document.addEventListener("keydown", (ev) => {
+  if (ev.key !== "f" || ev.repeat) return;
+  if (document.fullscreenElement) document.exitFullscreen();
+  else document.documentElement.requestFullscreen().catch((err) => console.warn(err));
+});
+document.addEventListener("fullscreenchange", fitExactly);
 
 sizeCanvas();
 const proto = location.protocol === "https:" ? "wss:" : "ws:";
