@@ -162,8 +162,12 @@ class Bridge:
                 try:
                     msg = await sub.recv(timeout=0.25)
                 except ProtocolError as exc:  # a newer schema: tell the pages, keep going
-                    self._error(str(exc))
-                    self._set_status("error", str(exc))
+                    if self.stats.state != "error" or self._status_message != str(exc):
+                        self._error(str(exc))  # logged once per episode, not per frame
+                        self._set_status("error", str(exc))
+                    else:
+                        self._own_errors += 1
+                    self._last_frame_at = time.monotonic()  # the daemon is there
                     continue
                 try:
                     self._handle(msg)
