@@ -62,6 +62,9 @@ def _run_bench(args: argparse.Namespace) -> int:
         )
         assert spec is not None and spec.loader is not None
         module = importlib.util.module_from_spec(spec)
+        # Registered before running, as an import would, so that dataclasses
+        # and pickling inside the benchmark can find their own module.
+        sys.modules[spec.name] = module
         spec.loader.exec_module(module)
         status |= int(module.main(list(args.rest)))
     return status
