@@ -15,6 +15,7 @@ from pathlib import Path
 from typing import Any
 
 import zmq
+import zmq.auth
 
 from stiction import protocol
 from stiction.errors import ProtocolError
@@ -117,7 +118,11 @@ def stroke(n: int = 50, device: str = "pen") -> list[dict[str, Any]]:
 
 class FakeDaemon:
     def __init__(
-        self, pub: str, control: str | None = None, context: zmq.Context[Any] | None = None
+        self,
+        pub: str,
+        control: str | None = None,
+        context: zmq.Context[Any] | None = None,
+        curve_secret: Path | None = None,
     ) -> None:
         self.pub_endpoint = pub
         self.control_endpoint = control
@@ -126,6 +131,12 @@ class FakeDaemon:
         self.pub = self.ctx.socket(zmq.XPUB)
         self.pub.setsockopt(zmq.LINGER, 0)
         self.pub.setsockopt(zmq.SNDHWM, 100_000)
+        if curve_secret is not None:  # a network daemon: CURVE server, ZAP-checked clients
+            public, secret = zmq.auth.load_certificate(str(curve_secret))
+            self.pub.zap_domain = b"stiction"
+            self.pub.curve_publickey = public
+            self.pub.curve_secretkey = secret
+            self.pub.curve_server = True
         self.pub.bind(pub)
         self.snapshot: dict[str, Any] = {"tick": -1, "scene": SCENE, "frames": {}}
         self.params: dict[str, Any] = {"k": 0.1, "m": 1e-4, "mu_k": 0.1, "C_l": 2000.0}

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import asyncio
 import math
+import shutil
 import socket
 import threading
+from pathlib import Path
 
 import msgpack
 import numpy as np
@@ -21,6 +23,7 @@ from stiction.clients import (
     SceneMessage,
     Subscriber,
 )
+from stiction.clients.curve import CurveKeys
 from stiction.errors import ProtocolError, StictionError
 
 pytest_plugins = ["clients_fixtures"]
@@ -262,3 +265,48 @@ def test_async_subscriber_snapshot(daemon: FakeDaemon) -> None:
             return [f.tick async for f in sub.frames(count=3)]
 
     assert asyncio.run(main()) == [2, 3, 4]
+
+
+def test_curve_daemon_talks_only_to_authorised_clients(short_dir: Path) -> None:
+    import zmq.auth
+    from zmq.auth.thread import ThreadAuthenticator
+
+    keys, allowed = short_dir / "keys", short_dir / "authorized"
+    keys.mkdir()
+    allowed.mkdir()
+    server_pub, server_secret = zmq.auth.create_certificates(str(keys), "daemon")
+    client_pub, client_secret = zmq.auth.create_certificates(str(keys), "client")
+    _, stranger_secret = zmq.auth.create_certificates(str(keys), "stranger")
+    shutil.copy(client_pub, allowed)
+    ctx = zmq.Context()
+    auth = ThreadAuthenticator(ctx)
+    auth.start()
+    auth.configure_curve(domain="stiction", location=str(allowed))
+    pub = f"tcp://127.0.0.1:{free_port()}"
+    d = FakeDaemon(pub, context=ctx, curve_secret=Path(server_secret))
+    try:
+        good = Subscriber(pub, curve=CurveKeys.from_files(server_pub, client_secret))
+        stranger = Subscriber(pub, curve=CurveKeys.from_files(server_pub, stranger_secret))
+        plain = Subscriber(pub)
+        d.wait_subscribers()  # only the authorised client gets this far
+        d.send(make_frame(1))
+        msg = good.recv(timeout=10)
+        assert isinstance(msg, Frame) and msg.tick == 1
+        # Refused peers never receive a frame (the daemon does not read them at all).
+        assert stranger.recv(timeout=0.2) is None and plain.recv(timeout=0.2) is None
+        for s in (good, stranger, plain):
+            s.close()
+    finally:
+        d.close()
+        auth.stop()
+        ctx.term()
+
+
+def test_curve_key_files_are_checked(short_dir: Path) -> None:
+    import zmq.auth
+
+    public, _secret = zmq.auth.create_certificates(str(short_dir), "x")
+    with pytest.raises(StictionError, match="cannot read CURVE key"):
+        CurveKeys.from_files(short_dir / "missing.key", public)
+    with pytest.raises(StictionError, match="no secret key"):
+        CurveKeys.from_files(public, public)

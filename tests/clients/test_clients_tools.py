@@ -251,3 +251,8 @@ def test_record_writes_the_file_when_stopped_by_a_signal(
     rec = rec_mod.read(out)
     assert rec.meta["scene"] == SCENE and rec.table.frame_count <= 5
     assert f"to {out}" in err
+
+
+def test_curve_flags_come_in_pairs(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["listen", "--curve-server-key", "x.key", "--seconds", "1"]) == 2
+    assert "give both --curve-server-key and --curve-client-key" in capsys.readouterr().err

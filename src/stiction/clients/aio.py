@@ -15,6 +15,7 @@ from zmq.utils.monitor import parse_monitor_message
 
 from stiction import protocol
 from stiction.clients import control
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, Message
 from stiction.clients.stream import StreamState, SubscriberStats, normalise_kinds, subscriptions
 from stiction.clients.subscriber import DRAIN_LIMIT, configure_sub
@@ -40,6 +41,7 @@ class AsyncSubscriber:
         hwm: int = 10_000,
         heartbeat: float = 1.0,
         snapshot_timeout: float = 1.0,
+        curve: CurveKeys | None = None,
     ) -> None:
         kinds_t = normalise_kinds(kinds)
         devs = None if devices is None else tuple(devices)
@@ -48,6 +50,9 @@ class AsyncSubscriber:
         self._ctx = context or zmq.asyncio.Context.instance()
         self._sock = self._ctx.socket(zmq.SUB)
         configure_sub(self._sock, hwm, heartbeat)
+        if curve is not None:
+            curve.apply(self._sock)
+        self._curve = curve
         for topic in subscriptions(kinds_t, devs):
             self._sock.setsockopt(zmq.SUBSCRIBE, topic)
         for ep in self.endpoints:
@@ -73,7 +78,11 @@ class AsyncSubscriber:
         self._started = True
         assert self._control is not None
         reply = await control.request_async(
-            self._control, "snapshot", timeout=self._snapshot_timeout, context=self._ctx
+            self._control,
+            "snapshot",
+            timeout=self._snapshot_timeout,
+            context=self._ctx,
+            curve=self._curve,
         )
         self._ready = self._state.snapshot_messages(reply)
 

@@ -10,6 +10,7 @@ import argparse
 from typing import Any
 
 from stiction import protocol
+from stiction.errors import StictionError
 
 
 def _positive_int(text: str) -> int:
@@ -44,6 +45,27 @@ def default_control(pub: str) -> str | None:
     return protocol.DEFAULT_CONTROL if pub == protocol.DEFAULT_PUB else None
 
 
+def _curve(args: argparse.Namespace) -> Any:
+    """CurveKeys from --curve-server-key / --curve-client-key, or None."""
+    server, client = args.curve_server_key, args.curve_client_key
+    if server is None and client is None:
+        return None
+    if server is None or client is None:
+        raise StictionError("give both --curve-server-key and --curve-client-key, or neither")
+    from stiction.clients.curve import CurveKeys
+
+    return CurveKeys.from_files(server, client)
+
+
+def _add_curve(p: argparse.ArgumentParser) -> None:
+    p.add_argument(
+        "--curve-server-key", metavar="FILE", help="the daemon's public .key (network daemons)"
+    )
+    p.add_argument(
+        "--curve-client-key", metavar="FILE", help="this client's .key_secret (network daemons)"
+    )
+
+
 def _listen(args: argparse.Namespace) -> int:
     from stiction.clients.listen import listen
 
@@ -54,6 +76,7 @@ def _listen(args: argparse.Namespace) -> int:
         seconds=args.seconds,
         devices=args.device or None,
         scenes=args.scenes,
+        curve=_curve(args),
     )
 
 
@@ -71,6 +94,7 @@ def _record(args: argparse.Namespace) -> int:
             idle=args.idle,
             devices=args.device or None,
             stop=stop,
+            curve=_curve(args),
         )
     report(result)
     return 0
@@ -96,7 +120,14 @@ def _web(args: argparse.Namespace) -> int:
     from stiction.clients.web.server import serve
 
     ctl = None if args.no_control else (args.control or default_control(args.pub))
-    return serve(pub=args.pub, control=ctl, host=args.host, port=args.port, seconds=args.seconds)
+    return serve(
+        pub=args.pub,
+        control=ctl,
+        host=args.host,
+        port=args.port,
+        seconds=args.seconds,
+        curve=_curve(args),
+    )
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
@@ -112,6 +143,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
     p.add_argument("--device", action="append", help="only this device (repeatable)")
     p.add_argument("--scenes", action="store_true", help="also print scene messages")
+    _add_curve(p)
     p.set_defaults(func=_listen)
 
     p = sub.add_parser(
@@ -135,6 +167,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--idle", type=_positive_float, help="stop after S seconds without frames (once started)"
     )
     p.add_argument("--device", action="append", help="only this device (repeatable)")
+    _add_curve(p)
     p.set_defaults(func=_record)
 
     p = sub.add_parser(
@@ -180,4 +213,5 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--host", default="127.0.0.1", help="address to serve on (default loopback)")
     p.add_argument("--port", type=_port, default=8765, help="HTTP port (0: any free port)")
     p.add_argument("--seconds", type=_positive_float, help="stop after S seconds (for scripts)")
+    _add_curve(p)
     p.set_defaults(func=_web)

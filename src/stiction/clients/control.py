@@ -13,6 +13,7 @@ import zmq
 import zmq.asyncio
 
 from stiction import protocol
+from stiction.clients.curve import CurveKeys
 from stiction.errors import StictionError
 
 
@@ -20,9 +21,11 @@ class ControlUnavailable(StictionError):
     """Nothing answered on the control endpoint in time."""
 
 
-def _socket(ctx: zmq.Context[Any], endpoint: str) -> zmq.Socket[Any]:
+def _socket(ctx: zmq.Context[Any], endpoint: str, curve: CurveKeys | None) -> zmq.Socket[Any]:
     sock: zmq.Socket[Any] = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
+    if curve is not None:
+        curve.apply(sock)
     sock.connect(endpoint)
     return sock
 
@@ -33,6 +36,7 @@ def request(
     *,
     timeout: float = 1.0,
     context: zmq.Context[Any] | None = None,
+    curve: CurveKeys | None = None,
     **args: Any,
 ) -> dict[str, Any]:
     """Send one request and return the decoded reply.
@@ -41,7 +45,7 @@ def request(
     ProtocolError when the daemon answers with an error.
     """
     ctx = context or zmq.Context.instance()
-    sock = _socket(ctx, endpoint)
+    sock = _socket(ctx, endpoint, curve)
     try:
         sock.send(protocol.make_request(op, **args))
         if not sock.poll(int(timeout * 1000)):
@@ -57,12 +61,15 @@ async def request_async(
     *,
     timeout: float = 1.0,
     context: zmq.asyncio.Context | None = None,
+    curve: CurveKeys | None = None,
     **args: Any,
 ) -> dict[str, Any]:
     """The asyncio form of `request`, for the web bridge and AsyncSubscriber."""
     ctx = context or zmq.asyncio.Context.instance()
     sock = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
+    if curve is not None:
+        curve.apply(sock)
     sock.connect(endpoint)
     try:
         await sock.send(protocol.make_request(op, **args))

@@ -7,6 +7,7 @@ import time
 from collections.abc import Sequence
 from typing import TextIO
 
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, Message
 from stiction.clients.subscriber import Subscriber
 
@@ -42,6 +43,7 @@ def listen(
     devices: Sequence[str] | None = None,
     scenes: bool = False,
     out: TextIO | None = None,
+    curve: CurveKeys | None = None,
 ) -> int:
     """Print frames until ``count`` frames or ``seconds`` pass (or forever).
 
@@ -52,7 +54,7 @@ def listen(
     kinds = ("frame", "scene") if scenes else ("frame",)
     n = 0
     end = None if seconds is None else time.monotonic() + seconds
-    with Subscriber(endpoint, devices=devices, kinds=kinds) as sub:
+    with Subscriber(endpoint, devices=devices, kinds=kinds, curve=curve) as sub:
         while count is None or n < count:
             wait = None if end is None else end - time.monotonic()
             if wait is not None and wait <= 0:

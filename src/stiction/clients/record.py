@@ -22,6 +22,7 @@ from typing import Any
 
 from stiction import __version__, protocol
 from stiction.clients import control, recording
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, SceneMessage
 from stiction.clients.stream import SubscriberStats
 from stiction.clients.subscriber import Subscriber
@@ -39,20 +40,23 @@ class RecordResult:
     bad: int
 
 
-def fetch_metadata(control_endpoint: str | None, timeout: float = 1.0) -> dict[str, Any]:
+def fetch_metadata(
+    control_endpoint: str | None, timeout: float = 1.0, curve: CurveKeys | None = None
+) -> dict[str, Any]:
     """Scene, parameters and devices from the daemon, or why they are missing."""
     if control_endpoint is None:
         return {"control": None, "control_error": "no control endpoint given"}
     meta: dict[str, Any] = {"control": control_endpoint}
     try:
-        meta["daemon"] = control.request(control_endpoint, "ping", timeout=timeout)
-        scene = control.request(control_endpoint, "get_scene", timeout=timeout)
+        meta["daemon"] = control.request(control_endpoint, "ping", timeout=timeout, curve=curve)
+        scene = control.request(control_endpoint, "get_scene", timeout=timeout, curve=curve)
         meta["scene"] = scene.get("scene")
         meta["scene_toml"] = scene.get("toml")
-        meta["params"] = control.request(control_endpoint, "get_params", timeout=timeout)
-        meta["devices"] = control.request(control_endpoint, "devices", timeout=timeout).get(
-            "devices"
+        meta["params"] = control.request(
+            control_endpoint, "get_params", timeout=timeout, curve=curve
         )
+        devices = control.request(control_endpoint, "devices", timeout=timeout, curve=curve)
+        meta["devices"] = devices.get("devices")
     except (control.ControlUnavailable, ProtocolError) as exc:
         meta["control_error"] = str(exc)
         log.warning("recording without daemon metadata: %s", exc)
@@ -72,13 +76,14 @@ def record(
     idle: float | None = None,
     devices: Sequence[str] | None = None,
     stop: threading.Event | None = None,
+    curve: CurveKeys | None = None,
 ) -> RecordResult:
     """Record until ``count`` frames, ``seconds``, ``idle`` seconds of silence
     after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``."""
     out = Path(out)
     if out.suffix != ".npz":
         raise RecordingError(f"{out}: recordings are numpy .npz files; name it *.npz")
-    meta = fetch_metadata(control_endpoint)
+    meta = fetch_metadata(control_endpoint, curve=curve)
     reachable = "control_error" not in meta
     meta.update(
         endpoint=endpoint,
@@ -98,6 +103,7 @@ def record(
             devices=devices,
             kinds=("frame", "scene"),
             control=control_endpoint if reachable else None,
+            curve=curve,
         )
         while count is None or len(frames) < count:
             if stop is not None and stop.is_set():

@@ -21,7 +21,8 @@ import zmq
 from zmq.utils.monitor import parse_monitor_message
 
 from stiction import protocol
-from stiction.clients import control
+from stiction.clients import control as control_mod
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, Message
 from stiction.clients.stream import StreamState, SubscriberStats, normalise_kinds, subscriptions
 from stiction.errors import StictionError
@@ -62,6 +63,7 @@ class Subscriber:
     ``control``: the daemon's control endpoint; when given, the subscriber
     asks it for a snapshot after subscribing (ZeroMQ's clone pattern) so the
     current scene and frames arrive at once and no frame is seen twice.
+    ``curve``: keys for a daemon that serves the network (CurveKeys.from_files).
     """
 
     def __init__(
@@ -76,6 +78,7 @@ class Subscriber:
         hwm: int = 10_000,
         heartbeat: float = 1.0,
         snapshot_timeout: float = 1.0,
+        curve: CurveKeys | None = None,
     ) -> None:
         kinds_t = normalise_kinds(kinds)
         devs = None if devices is None else tuple(devices)
@@ -84,6 +87,8 @@ class Subscriber:
         self._ctx = context or zmq.Context.instance()
         self._sock: zmq.Socket[Any] = self._ctx.socket(zmq.SUB)
         configure_sub(self._sock, hwm, heartbeat)
+        if curve is not None:
+            curve.apply(self._sock)
         for topic in subscriptions(kinds_t, devs):
             self._sock.setsockopt(zmq.SUBSCRIBE, topic)
         try:
@@ -97,7 +102,9 @@ class Subscriber:
         )
         self._ready: list[Message] = []
         if control is not None:
-            reply = control_request(control, snapshot_timeout, self._ctx)
+            reply = control_mod.request(
+                control, "snapshot", timeout=snapshot_timeout, context=self._ctx, curve=curve
+            )
             self._ready = self._state.snapshot_messages(reply)
 
     @property
@@ -205,7 +212,3 @@ class Subscriber:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
-
-
-def control_request(endpoint: str, timeout: float, ctx: zmq.Context[Any]) -> dict[str, Any]:
-    return control.request(endpoint, "snapshot", timeout=timeout, context=ctx)

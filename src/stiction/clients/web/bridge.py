@@ -21,6 +21,7 @@ from typing import Any
 from stiction import protocol
 from stiction.clients import control as control_mod
 from stiction.clients.aio import AsyncSubscriber
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, SceneMessage, wire_to_json
 from stiction.errors import ProtocolError
 
@@ -64,9 +65,10 @@ class Page:
 
 
 class Bridge:
-    def __init__(self, pub: str, control: str | None) -> None:
+    def __init__(self, pub: str, control: str | None, curve: CurveKeys | None = None) -> None:
         self.pub = pub
         self.control = control
+        self.curve = curve
         self.stats = BridgeStats()
         self.latest: dict[str, str] = {}
         """Stream key ("frame:<device>", "scene", "status") -> JSON text to send."""
@@ -123,7 +125,9 @@ class Bridge:
         if self.control is None:
             return
         try:
-            reply = await control_mod.request_async(self.control, "snapshot", timeout=1.0)
+            reply = await control_mod.request_async(
+                self.control, "snapshot", timeout=1.0, curve=self.curve
+            )
         except (control_mod.ControlUnavailable, ProtocolError) as exc:
             log.info("no snapshot from %s: %s", self.control, exc)
             return
@@ -155,7 +159,7 @@ class Bridge:
 
     async def run(self) -> None:
         """Read the daemon until cancelled; never raises for anything it receives."""
-        sub = self._sub = AsyncSubscriber(self.pub, kinds=("frame", "scene"))
+        sub = self._sub = AsyncSubscriber(self.pub, kinds=("frame", "scene"), curve=self.curve)
         await self._fetch_snapshot()
         try:
             while True:

@@ -14,6 +14,7 @@ from typing import Any
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from stiction import __version__
+from stiction.clients.curve import CurveKeys
 from stiction.clients.web.bridge import Bridge
 from stiction.clients.web.errors import PortInUse
 from stiction.errors import StictionError
@@ -104,12 +105,13 @@ async def run(
     ready: asyncio.Future[str] | None = None,
     bridges: list[Bridge] | None = None,
     announce: bool = True,
+    curve: CurveKeys | None = None,
 ) -> None:
     """Serve until cancelled, SIGINT/SIGTERM, or ``seconds`` pass.
 
     ``ready`` gets the page's URL once serving; ``bridges`` (if given) gets the
     Bridge, so an embedding program (stiction demo) can read its counters."""
-    bridge = Bridge(pub, control)
+    bridge = Bridge(pub, control, curve)
     if bridges is not None:
         bridges.append(bridge)
     runner = web.AppRunner(make_app(bridge), access_log=None)
@@ -149,8 +151,14 @@ async def run(
 
 
 def serve(
-    *, pub: str, control: str | None, host: str, port: int, seconds: float | None = None
+    *,
+    pub: str,
+    control: str | None,
+    host: str,
+    port: int,
+    seconds: float | None = None,
+    curve: CurveKeys | None = None,
 ) -> int:
     with contextlib.suppress(KeyboardInterrupt):
-        asyncio.run(run(pub, control, host, port, seconds))
+        asyncio.run(run(pub, control, host, port, seconds, curve=curve))
     return 0
