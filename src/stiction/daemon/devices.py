@@ -109,13 +109,11 @@ def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> Sa
         path = Path(spec.target)
         if not path.exists():
             raise DeviceError(f"replay: no such recording {path}")
-        # The drivers' package-level replay() is shadowed by their submodule of the
-        # same name once that is imported, so the submodules' factories are called.
         if path.suffix == ".hid":
-            from stiction.drivers.hid.replay import open_replay as hid_replay
+            from stiction.drivers.hid import replay as hid_replay
 
             return hid_replay(path, realtime=realtime, size_m=size)
-        from stiction.drivers.evdev.playback import open_replay as evdev_replay
+        from stiction.drivers.evdev import replay as evdev_replay
 
         size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
         return evdev_replay(path, spec.extra, realtime=realtime, size_mm=size_mm)

@@ -25,7 +25,7 @@ def replay(
     size_m: tuple[float, float] | None = None,
 ) -> ReportSource:
     """Replay a hid-recorder file; `size_m` overrides the active area (metres)."""
-    from stiction.drivers.hid.replay import open_replay
+    from stiction.drivers.hid.playback import open_replay
 
     return open_replay(path, realtime=realtime, size_m=size_m)
 
