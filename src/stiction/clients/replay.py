@@ -26,6 +26,10 @@ from stiction import __version__, protocol
 from stiction.clients import recording
 from stiction.errors import ProtocolError, StictionError
 
+MAX_PAUSE = 1.0
+"""Longest wait between two frames, in recorded seconds. A live daemon publishes
+every tick, so a longer gap in a recording is an outage, replayed as a jump."""
+
 
 @dataclass
 class ReplayState:
@@ -169,15 +173,19 @@ class Replayer:
         return self.state.sent
 
     def _one_pass(self, speed: float, fast: bool) -> None:
-        start = time.monotonic()
-        t0: float | None = None
+        due = time.monotonic()
+        prev_t: float | None = None
         for topic, payload in self.rec.messages():
             message = protocol.decode(payload)
             if message.get("kind") == "frame" and not fast:
                 t = float(message["t"])
-                if t0 is None:
-                    t0 = t
-                due = start + (t - t0) / speed
+                step = 0.0 if prev_t is None else t - prev_t
+                # Absolute deadlines from summed steps: no drift over a long file.
+                # A step backwards or longer than MAX_PAUSE is a discontinuity
+                # (the daemon restarted or was away) and is not waited out.
+                if 0 < step <= MAX_PAUSE:
+                    due += step / speed
+                prev_t = t
                 while (left := due - time.monotonic()) > 0:
                     self.service(left)
             else:
