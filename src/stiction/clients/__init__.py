@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any
 
 from stiction.clients.aio import AsyncSubscriber
 from stiction.clients.control import ControlUnavailable
+from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Contact, Frame, Message, SceneMessage, StringState
 from stiction.clients.stream import SubscriberStats
 from stiction.clients.subscriber import Subscriber
@@ -28,6 +29,7 @@ __all__ = [
     "Contact",
     "ContactTable",
     "ControlUnavailable",
+    "CurveKeys",
     "Frame",
     "Message",
     "SceneMessage",
