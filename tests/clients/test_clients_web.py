@@ -21,6 +21,7 @@ from stiction.clients import SceneMessage, Subscriber, recording
 from stiction.clients.messages import Frame
 from stiction.clients.replay import Replayer
 from stiction.clients.web import server
+from stiction.clients.web.bridge import Bridge
 
 pytest_plugins = ["clients_fixtures"]
 
@@ -165,6 +166,7 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
         assert px[5] == px[6] and px[5][:3] != [250, 250, 250], px[5]
         status = page.inner_text("#status")
         assert "stick" in status and "string 96.0 px" in status and "sticky" in status
+        assert "frames/s" in status and "latency" in status
         # "f": full screen at one canvas pixel per device pixel.
         page.keyboard.press("f")
         page.wait_for_function("document.body.classList.contains('exact')", timeout=10_000)
@@ -276,3 +278,17 @@ def recording_scene(messages: list[tuple[bytes, bytes, float]]) -> Iterator[dict
     for topic, payload, _ in messages:
         if topic == protocol.TOPIC_SCENE:
             yield protocol.decode(payload)["scene"]
+
+
+def test_a_slow_page_gets_the_latest_frame_not_a_queue() -> None:
+    bridge = Bridge("ipc:///nowhere", None)
+    page = bridge.attach()
+    assert [json.loads(m)["type"] for m in bridge.take(page)] == ["status"]
+    for wire in stroke_frames():
+        frame = Frame.from_wire(protocol.validate_frame(wire))
+        bridge._publish(f"frame:{frame.device}", bridge.frame_json(frame, received=0.0))
+    sent = [json.loads(m) for m in bridge.take(page)]
+    assert [m["frame"]["tick"] for m in sent] == [59]  # only the newest
+    assert bridge.stats.skipped_for_slow_pages == 59
+    assert sent[0]["latency_ms"] is None  # t=100.59 is not this clock: no fake latency
+    assert bridge.take(page) == []
