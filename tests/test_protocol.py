@@ -57,6 +57,9 @@ def test_newer_schema_is_refused_with_a_clear_message() -> None:
         protocol.encode(_frame(tick="7")),
         protocol.encode(_frame(t=math.nan)),
         protocol.encode(_frame(contacts=[{"id": 0, "phase": "flying"}])),
+        protocol.encode(
+            _frame(contacts=[{**_frame()["contacts"][0], "pointer_px": [math.nan, 1.0]}])  # type: ignore[index]
+        ),
     ],
 )
 def test_malformed_frames_raise_protocol_error(payload: bytes) -> None:

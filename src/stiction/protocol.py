@@ -110,9 +110,12 @@ def _vec(value: Any, where: str) -> list[float]:
     if (
         not isinstance(value, list)
         or len(value) != 2
-        or not all(isinstance(c, (int, float)) and not isinstance(c, bool) for c in value)
+        or not all(
+            isinstance(c, (int, float)) and not isinstance(c, bool) and math.isfinite(c)
+            for c in value
+        )
     ):
-        raise ProtocolError(f"{where} must be a list of two numbers")
+        raise ProtocolError(f"{where} must be a list of two finite numbers")
     return [float(value[0]), float(value[1])]
 
 
