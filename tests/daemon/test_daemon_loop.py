@@ -12,10 +12,10 @@ from typing import Any
 import msgpack
 import pytest
 import zmq
+from daemon_support import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from conftest import ListSource, Runner, drain, make_daemon, request, stroke, subscribe
 from stiction import protocol
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.hotplug import Hotplug

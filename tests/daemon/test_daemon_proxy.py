@@ -9,8 +9,8 @@ import msgpack
 import pytest
 import zmq
 import zmq.auth
+from daemon_support import ListSource, Runner, make_daemon, stroke
 
-from conftest import ListSource, Runner, make_daemon, stroke
 from stiction import cli
 from stiction.daemon.proxy import run_proxy
 from stiction.daemon.security import CurveConfig, SecurityError

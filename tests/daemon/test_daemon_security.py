@@ -10,8 +10,8 @@ import msgpack
 import pytest
 import zmq
 import zmq.auth
+from daemon_support import ListSource, Runner, make_daemon, stroke
 
-from conftest import ListSource, Runner, make_daemon, stroke
 from stiction import protocol
 from stiction.daemon.security import CurveConfig, SecurityError, is_local_endpoint
 
