@@ -13,6 +13,12 @@ counted as rejected). Touch-down, lift-off, hover and up work as in
 ContactSim. Supported: "exact"/"default" (with event location), and
 "explicit-euler", "semi-implicit-euler", "implicit-projection" without it;
 "rk4" has no batch form.
+
+The default integrator ("exact" with event location) runs as a compiled
+loop (batch_kernel.py, numba) when numba is installed: ContactSim's own
+scalar steps per contact, so the figures in docs/accuracy.md are reachable.
+``compiled=False`` (or no numba) keeps the numpy form below, which gives the
+same results and is what the other integrators always use.
 """
 
 from __future__ import annotations
@@ -54,6 +60,21 @@ _CODE = np.array([0, 1, 1, 2, 3], dtype=np.int8)
 
 
 _WARMED = False
+_KERNEL: Any = None
+"""batch_kernel.advance_exact once imported, False if numba is missing."""
+
+
+def _load_kernel() -> Any:
+    """The compiled exact stepper, or None without numba (imported on first use)."""
+    global _KERNEL
+    if _KERNEL is None:
+        try:
+            from stiction.sim.batch_kernel import advance_exact
+        except ImportError:
+            _KERNEL = False
+        else:
+            _KERNEL = advance_exact
+    return _KERNEL or None
 
 
 def _warm_allocator() -> None:
@@ -84,6 +105,8 @@ class BatchSim:
         substeps: int = 1,
         events: bool | None = None,
         string: bool = True,
+        *,
+        compiled: bool | None = None,
     ) -> None:
         if isinstance(n, bool) or not isinstance(n, int) or n < 1:
             raise ParamError(f"number of contacts must be an integer >= 1, got {n!r}")
@@ -100,6 +123,13 @@ class BatchSim:
             )
         self.n = n
         self.string = bool(string)
+        self._kernel: Any = None
+        if compiled is not False and self.integrator == "exact" and self.events:
+            self._kernel = _load_kernel()
+            if compiled and self._kernel is None:
+                raise ParamError("compiled=True needs numba (pip install numba)")
+        elif compiled:
+            raise ParamError("only the exact integrator with events has a compiled form")
         _warm_allocator()
         self.S = np.zeros((_ROWS, n))
         self.S[DX] = 1.0
@@ -109,6 +139,8 @@ class BatchSim:
         self.truncated_steps = 0
         self._t: float | None = None
         self._load: F = np.ones(n)
+        self._load_scalar: float | None = 1.0
+        """The load gain last given, when it was one number for all contacts."""
         self._set_params(params if params is not None else Params())
 
     def _set_params(self, params: Params) -> None:
@@ -121,6 +153,7 @@ class BatchSim:
         full = kernels.propagator(self._w, self._hmax)
         half = kernels.propagator(self._w, 0.5 * self._hmax)
         self._c0 = (*full, half[2], half[3])
+        self._c0_arr = np.array(self._c0, dtype=np.float64)
         self._apply_load()
 
     def _apply_load(self) -> None:
@@ -154,7 +187,37 @@ class BatchSim:
         rng = tips if in_range is None else np.asarray(in_range, dtype=bool).reshape(self.n)
         if params is not None and params is not self.params:
             self._set_params(params)
+        if not (isinstance(load_gain, float | int) and load_gain == self._load_scalar):
+            self._check_load(load_gain, prev)
+        if self._kernel is not None and (prev is None or t - prev > MIN_SEGMENT):
+            rejected, truncated, overflows = self._kernel(
+                self.S,
+                self.mode,
+                np.ascontiguousarray(xs),
+                np.ascontiguousarray(ys),
+                np.ascontiguousarray(tips),
+                np.ascontiguousarray(rng),
+                prev is not None,
+                t - prev if prev is not None else 0.0,
+                self._k,
+                self._m,
+                self._c,
+                self._w,
+                self._hmax,
+                self._c0_arr,
+                _BASE_PIECES + 64 * self.substeps,
+            )
+            self.rejected_samples += int(rejected)
+            self.truncated_steps += int(truncated)
+            self.event_overflows += int(overflows)
+            self._t = t
+            return
+        self._advance_numpy(t, prev, xs, ys, tips, rng)
+
+    def _check_load(self, load_gain: float | npt.ArrayLike, prev: float | None) -> None:
+        """Take a new load gain; a stuck contact now outside its stick disc breaks away."""
         lg = np.broadcast_to(np.asarray(load_gain, dtype=np.float64), (self.n,))
+        scalar = isinstance(load_gain, float | int) and not isinstance(load_gain, bool)
         if not np.array_equal(lg, self._load):
             if not (np.all(np.isfinite(lg)) and np.all(lg >= 0.0)):
                 raise ParamError("load_gain must be finite and >= 0")
@@ -174,6 +237,9 @@ class BatchSim:
                     self._decide(sub, md, np.ones(over.size, dtype=bool))
                     S[:, over] = sub
                     self.mode[over] = md
+        self._load_scalar = float(load_gain) if scalar else None  # type: ignore[arg-type]
+
+    def _advance_numpy(self, t: float, prev: float | None, xs: F, ys: F, tips: B, rng: B) -> None:
         ok = np.isfinite(xs) & np.isfinite(ys)
         self.rejected_samples += int(self.n - np.count_nonzero(ok))
         touching = self.mode <= RESTING
@@ -267,16 +333,6 @@ class BatchSim:
                 live &= sub[LEFT] > eps
                 if not live.any():
                     return
-                moving = live & (md == MOVING)
-                pieces[moving] += 1
-                cut = moving & (pieces > max_pieces)
-                if cut.any():
-                    # As ContactSim: a long gap ends at rest (see _BASE_PIECES).
-                    self.truncated_steps += int(np.count_nonzero(cut))
-                    sub[UX, cut] = sub[TGTX, cut]
-                    sub[UY, cut] = sub[TGTY, cut]
-                    self._decide_subset(sub, md, cut, False)
-                    live &= ~cut
                 consumed = np.full(sub.shape[1], np.inf)
                 for mode, fn in (
                     (STICK, self._stick),
@@ -284,6 +340,21 @@ class BatchSim:
                     (MOVING, self._moving),
                 ):
                     ii = np.nonzero(live & (md == mode))[0]
+                    if mode == MOVING and ii.size:
+                        # Counted here, not at the top of the pass: a contact
+                        # released from stick earlier in this pass takes its
+                        # first piece now, and ContactSim counts that piece.
+                        pieces[ii] += 1
+                        cut = np.zeros(sub.shape[1], dtype=bool)
+                        cut[ii[pieces[ii] > max_pieces]] = True
+                        if cut.any():
+                            # As ContactSim: a long gap ends at rest (see _BASE_PIECES).
+                            self.truncated_steps += int(np.count_nonzero(cut))
+                            sub[UX, cut] = sub[TGTX, cut]
+                            sub[UY, cut] = sub[TGTY, cut]
+                            self._decide_subset(sub, md, cut, False)
+                            live &= ~cut
+                            ii = ii[~cut[ii]]
                     if ii.size:
                         s2 = sub[:, ii]
                         m2 = md[ii]
