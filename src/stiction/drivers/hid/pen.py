@@ -154,7 +154,8 @@ def _size_error(device: str, f: Field, which: str) -> DeviceError:
         f"(unit {unit_name(f.unit)}, physical {f.physical_min}..{f.physical_max}), so its "
         "coordinates cannot be converted to metres; give its active area: size_mm in "
         "~/.config/stiction/hid-devices.toml (see docs/devices.md), surface_size (metres) "
-        "in the daemon config's [[devices]] entry, or --size WxH in millimetres (e.g. --size 254x158.8)"
+        "in the daemon config's [[devices]] entry, or --size WxH in millimetres "
+        "(e.g. --size 254x158.8)"
     )
 
 
