@@ -398,11 +398,13 @@ def _segment(
                 S[UX, i] = u1x
                 S[UY, i] = u1y
                 return _rest_decide(S, i, udx, udy, False, k, c), 1, 0
-            npc = math.ceil(left / hmax * (1.0 - 1e-12))
-            piece = left / npc if npc > 1 else left
+            if left <= hmax:
+                piece = left  # what ceil(left / hmax * (1 - 1e-12)) == 1 gives
+            else:
+                npc = math.ceil(left / hmax * (1.0 - 1e-12))
+                piece = left / npc if npc > 1 else left
             if abs(piece - hmax) <= 1e-12 * hmax:
-                for j in range(6):
-                    cf[j] = c0[j]
+                coef = c0
             else:
                 _prop(w, 0.5 * piece, tmp)
                 cf[4] = tmp[2]
@@ -410,7 +412,8 @@ def _segment(
                 _prop(w, piece, tmp)
                 for j in range(4):
                     cf[j] = tmp[j]
-            consumed, event = _piece_exact(S, i, piece, udx, udy, cf, k, m, w, tmp)
+                coef = cf
+            consumed, event = _piece_exact(S, i, piece, udx, udy, coef, k, m, w, tmp)
             left -= consumed
             if event:
                 md = _rest_decide(S, i, udx, udy, False, k, c)
