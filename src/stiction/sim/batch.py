@@ -43,7 +43,7 @@ from stiction.sim.contact import (
     V_REST,
 )
 from stiction.sim.integrators import check_stable, resolve
-from stiction.sim.params import Params
+from stiction.sim.params import Params, check_tick
 from stiction.sim.state import ContactState, Phase
 
 F = npt.NDArray[np.float64]
@@ -175,12 +175,8 @@ class BatchSim:
         load_gain: float | npt.ArrayLike = 1.0,
     ) -> None:
         """Every contact takes its sample (x[i], y[i], tip[i]) stamped at tick time t."""
-        t = float(t)
-        if not math.isfinite(t):
-            raise ParamError(f"tick time must be finite, got {t!r}")
         prev = self._t
-        if prev is not None and t < prev:
-            raise ParamError(f"tick time {t!r} is before the previous tick {prev!r}")
+        t = check_tick(t, prev)
         xs = np.asarray(x, dtype=np.float64).reshape(self.n)
         ys = np.asarray(y, dtype=np.float64).reshape(self.n)
         tips = np.asarray(tip, dtype=bool).reshape(self.n)

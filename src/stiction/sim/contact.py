@@ -20,7 +20,7 @@ from typing import Any
 from stiction.errors import ParamError
 from stiction.sim import kernels
 from stiction.sim.integrators import INTEGRATORS, check_stable, resolve
-from stiction.sim.params import Params
+from stiction.sim.params import Params, check_tick
 from stiction.sim.state import ContactState, Phase
 
 STICK, MOVING, RESTING, HOVER, UP = 0, 1, 2, 3, 4
@@ -125,12 +125,8 @@ class ContactSim:
         load_gain: float = 1.0,
     ) -> ContactState:
         """Follow every sample up to tick time t and return the state at t."""
-        t = float(t)
-        if not math.isfinite(t):
-            raise ParamError(f"tick time must be finite, got {t!r}")
         prev = self._t
-        if prev is not None and t < prev:
-            raise ParamError(f"tick time {t!r} is before the previous tick {prev!r}")
+        t = check_tick(t, prev)
         if params is not None and params is not self.params:
             self._set_params(params)
         if load_gain != self._load:

@@ -136,3 +136,13 @@ def names() -> tuple[str, ...]:
 
 def _unknown_message(key: str) -> str:
     return f"unknown parameter {key!r}; known: {', '.join(names())}"
+
+
+def check_tick(t: float, prev: float | None) -> float:
+    """A tick time both steppers accept: finite and not before the previous tick."""
+    t = float(t)
+    if not math.isfinite(t):
+        raise ParamError(f"tick time must be finite, got {t!r}")
+    if prev is not None and t < prev:
+        raise ParamError(f"tick time {t!r} is before the previous tick {prev!r}")
+    return t
