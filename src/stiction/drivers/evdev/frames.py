@@ -518,24 +518,7 @@ class FrameAssembler:
             tip = BTN_TOUCH in keys
         else:
             tip = pressure is not None and pressure > self._pressure_min
-        if self._has_tilt:
-            return _tnew(
-                Contact,
-                (
-                    0,
-                    None,
-                    None,
-                    tool,
-                    a.get(ABS_X, 0),
-                    a.get(ABS_Y, 0),
-                    pressure,
-                    tip,
-                    True,
-                    a[ABS_TILT_X],
-                    a[ABS_TILT_Y],
-                    self._button_state,
-                ),
-            )
+        tilt_x, tilt_y = (a[ABS_TILT_X], a[ABS_TILT_Y]) if self._has_tilt else (None, None)
         return _tnew(
             Contact,
             (
@@ -548,8 +531,8 @@ class FrameAssembler:
                 pressure,
                 tip,
                 True,
-                None,
-                None,
+                tilt_x,
+                tilt_y,
                 self._button_state,
             ),
         )
