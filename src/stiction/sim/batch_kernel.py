@@ -22,8 +22,10 @@ from typing import Any, TypeVar, cast
 import numba  # type: ignore[import-untyped]
 import numpy as np
 import numpy.typing as npt
+from numba.extending import register_jitable  # type: ignore[import-untyped]
 
-from stiction.sim.kernels import BOUNDARY, EXP_CUTOFF, ROUND_OFF, TINY
+from stiction.sim import kernels
+from stiction.sim.kernels import EXP_CUTOFF, ROUND_OFF, TINY
 
 _Fn = TypeVar("_Fn", bound=Callable[..., Any])
 
@@ -70,102 +72,15 @@ def _hypot(x: float, y: float) -> float:
     return math.hypot(x, y)
 
 
-@_jit
-def _band(r2: float, delta: float) -> float:
-    return BOUNDARY * r2 + delta * (2.0 * math.sqrt(r2) + delta)
-
-
-@_jit
-def _first_exit(
-    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
-) -> float:
-    """kernels.first_exit; inf for None."""
-    c = a0x * a0x + a0y * a0y - r2
-    b = 2.0 * (a0x * a1x + a0y * a1y)
-    if c > tol or (c > -tol and b > 0.0):
-        return 0.0
-    a = a1x * a1x + a1y * a1y
-    if a == 0.0:
-        return INF
-    if c >= -tol:
-        tau = -b / a
-    else:
-        sq = math.sqrt(max(b * b - 4.0 * a * c, 0.0))
-        tau = (-b + sq) / (2.0 * a) if b <= 0.0 else (2.0 * c) / (-b - sq)
-    if tau > hmax:
-        return INF
-    return max(tau, 0.0)
-
-
-@_jit
-def _first_entry(
-    a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
-) -> float:
-    """kernels.first_entry; inf for None."""
-    c = a0x * a0x + a0y * a0y - r2
-    b = 2.0 * (a0x * a1x + a0y * a1y)
-    if c < -tol or (c <= tol and b < 0.0):
-        return 0.0
-    a = a1x * a1x + a1y * a1y
-    if a == 0.0 or b >= 0.0 or c <= tol:
-        return INF
-    disc = b * b - 4.0 * a * c
-    if disc < 0.0:
-        return INF
-    q = 0.5 * (-b + math.sqrt(disc))
-    tau = c / q
-    if tau > hmax:
-        return INF
-    return tau
-
-
-@_jit
-def _polish(g0: float, a: float, b: float, w: float, lo: float, hi: float) -> float:
-    """kernels._polish."""
-    tau = 0.5 * (lo + hi)
-    for _ in range(64):
-        e = math.exp(-w * tau)
-        f = g0 + (a - b * tau) * e
-        if f > 0.0:
-            lo = tau
-        else:
-            hi = tau
-        fp = e * (w * b * tau - b - w * a)
-        step = f / fp if fp != 0.0 else INF
-        if abs(step) <= 4e-16 * tau + 1e-300:
-            return tau
-        nxt = tau - step
-        if not lo < nxt < hi:
-            nxt = 0.5 * (lo + hi)
-            if nxt == lo or nxt == hi:  # noqa: SIM109 (kept simple for numba)
-                return hi
-        tau = nxt
-    return tau
-
-
-@_jit
-def _rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> float:
-    """kernels.rest_time; inf for None."""
-    f0 = g0 + a
-    d0 = -(b + w * a)
-    tc = (1.0 / w + a / b) if b != 0.0 else -1.0
-    interior = 0.0 < tc < h
-    if f_h <= 0.0:
-        if f0 > 0.0:
-            lo, hi = 0.0, h
-        elif d0 > 0.0 and interior and g0 + (a - b * tc) * math.exp(-w * tc) > 0.0:
-            lo, hi = tc, h
-        else:
-            return 0.0
-    else:
-        if f0 <= 0.0:
-            return INF
-        if not (d0 < 0.0 and interior):
-            return INF
-        if g0 + (a - b * tc) * math.exp(-w * tc) > 0.0:
-            return INF
-        lo, hi = 0.0, tc
-    return _polish(g0, a, b, w, lo, hi)
+# The event finders are kernels.py's own functions, compiled here: one source
+# for ContactSim and the batch loop. register_jitable lets the compiled
+# rest_time call kernels' plain Python helpers.
+register_jitable(kernels._f)
+register_jitable(kernels._polish)
+_band = _jit(kernels.band)
+_first_exit = _jit(kernels.first_exit)
+_first_entry = _jit(kernels.first_entry)
+_rest_time = _jit(kernels.rest_time)
 
 
 @_jit_inline

@@ -281,7 +281,7 @@ class ContactSim:
                     left,
                     kernels.band(self._rs2, self._delta()),
                 )
-                if tb is None:
+                if tb == kernels.NO_EVENT:
                     break
                 self._ux += udx * tb
                 self._uy += udy * tb
@@ -311,14 +311,14 @@ class ContactSim:
                     left,
                     kernels.band(fk2, k * delta),
                 )
-                if ts is None and tm is None:
+                tau = min(ts, tm)
+                if tau == kernels.NO_EVENT:
                     break
-                tau = min(x for x in (ts, tm) if x is not None)
                 self._ux += udx * tau
                 self._uy += udy * tau
                 left -= tau
                 consumed = tau
-                if ts is not None and ts <= tau:
+                if ts <= tau:
                     self._mode = STICK
                 else:
                     self._start_moving(udx, udy)
@@ -395,18 +395,17 @@ class ContactSim:
         a = ydx * d0x + ydy * d0y
         w = self._w
         b = w * ((ydx + w * y0x) * d0x + (ydy + w * y0y) * d0y)
-        tau: float | None
         if f_h > 0.0 and (
             not self.events or (g0 + a > 0.0 and not (b + w * a > 0.0 and w * b * h > b + w * a))
         ):
             # Positive at both ends and no interior minimum (f' changes sign
             # at most once, from - to + only where f'(0) < 0 < f'(h)).
-            tau = None
+            tau = kernels.NO_EVENT
         elif not self.events:
             tau = h
         else:
             tau = kernels.rest_time(g0, a, b, w, h, f_h)
-        if tau is None:
+        if tau == kernels.NO_EVENT:
             ux = self._ux + udx * h
             uy = self._uy + udy * h
             px = ux - q * dx + c11 * y0x + c12 * ydx

@@ -23,6 +23,12 @@ TINY = 1e-280
 Coeffs = tuple[float, float, float, float]
 
 
+NO_EVENT = math.inf
+"""What the event finders return when nothing happens within the step: a
+float rather than None, so that batch_kernel.py can compile these very
+functions with numba (they are written in the subset numba compiles)."""
+
+
 def propagator(w: float, h: float) -> Coeffs:
     """(c11, c12, c21, c22): y(h) = c11 y0 + c12 y0',  y'(h) = c21 y0 + c22 y0'."""
     wh = w * h
@@ -56,8 +62,8 @@ def band(r2: float, delta: float) -> float:
 
 def first_exit(
     a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
-) -> float | None:
-    """First tau in [0, hmax] where |a0 + a1 tau|^2 passes r2 going out, else None.
+) -> float:
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 passes r2 going out, else NO_EVENT.
 
     tol (from `band`) is the band around r2 that counts as on the boundary.
     """
@@ -67,7 +73,7 @@ def first_exit(
         return 0.0
     a = a1x * a1x + a1y * a1y
     if a == 0.0:
-        return None
+        return NO_EVENT
     if c >= -tol:
         tau = -b / a  # on the boundary moving in: out again through the other root
     else:
@@ -75,33 +81,33 @@ def first_exit(
         # The non-negative root, in the form that does not cancel.
         tau = (-b + sq) / (2.0 * a) if b <= 0.0 else (2.0 * c) / (-b - sq)
     if tau > hmax:
-        return None
+        return NO_EVENT
     return max(tau, 0.0)
 
 
 def first_entry(
     a0x: float, a0y: float, a1x: float, a1y: float, r2: float, hmax: float, tol: float
-) -> float | None:
-    """First tau in [0, hmax] where |a0 + a1 tau|^2 falls to r2 or below, else None."""
+) -> float:
+    """First tau in [0, hmax] where |a0 + a1 tau|^2 falls to r2 or below, else NO_EVENT."""
     c = a0x * a0x + a0y * a0y - r2
     b = 2.0 * (a0x * a1x + a0y * a1y)
     if c < -tol or (c <= tol and b < 0.0):
         return 0.0
     a = a1x * a1x + a1y * a1y
     if a == 0.0 or b >= 0.0 or c <= tol:
-        return None
+        return NO_EVENT
     disc = b * b - 4.0 * a * c
     if disc < 0.0:
-        return None
+        return NO_EVENT
     q = 0.5 * (-b + math.sqrt(disc))
     tau = c / q
     if tau > hmax:
-        return None
+        return NO_EVENT
     return tau
 
 
-def rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> float | None:
-    """First tau in (0, h] where f(tau) = g0 + (a - b tau) exp(-w tau) <= 0, else None.
+def rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> float:
+    """First tau in (0, h] where f(tau) = g0 + (a - b tau) exp(-w tau) <= 0, else NO_EVENT.
 
     f is the pen velocity along the direction it had at the start of the step;
     f(h) is passed in because the caller already has it. f' changes sign at
@@ -124,11 +130,11 @@ def rest_time(g0: float, a: float, b: float, w: float, h: float, f_h: float) -> 
             # instant the net force reaches F_k the acceleration is zero and
             # round-off may make f'(0) a hair negative; moving forward at the
             # end of the step means it did start.
-            return None
+            return NO_EVENT
         if not (d0 < 0.0 and interior):
-            return None
+            return NO_EVENT
         if _f(g0, a, b, w, tc) > 0.0:
-            return None
+            return NO_EVENT
         lo, hi = 0.0, tc
     return _polish(g0, a, b, w, lo, hi)
 
@@ -158,7 +164,7 @@ def _polish(g0: float, a: float, b: float, w: float, lo: float, hi: float) -> fl
         nxt = tau - step
         if not lo < nxt < hi:
             nxt = 0.5 * (lo + hi)
-            if nxt in (lo, hi):
+            if nxt == lo or nxt == hi:  # noqa: SIM109 (numba compiles this form)
                 return hi
         tau = nxt
     return tau
