@@ -108,9 +108,14 @@ def _sysfs_mask(bits: frozenset[int]) -> str:
     return " ".join(f"{w:x}" for w in reversed(words))
 
 
-def umockdev_text(desc: DeviceDescription, num: int, udev: dict[str, str]) -> str:
+def umockdev_text(
+    desc: DeviceDescription, num: int, udev: dict[str, str], id_input: bool = True
+) -> str:
+    """Without `id_input`, udev's own input_id builtin classifies the device."""
     minor = 64 + num
-    props = "".join(f"E: {k}={v}\n" for k, v in udev.items())
+    props = ("E: ID_INPUT=1\n" if id_input else "") + "".join(
+        f"E: {k}={v}\n" for k, v in udev.items()
+    )
     caps = {
         "ev": _sysfs_mask(frozenset(_types(desc))),
         "key": _sysfs_mask(desc.keys),
@@ -122,7 +127,6 @@ def umockdev_text(desc: DeviceDescription, num: int, udev: dict[str, str]) -> st
         f"P: /devices/virtual/input/input{num}/event{num}\n"
         f"N: input/event{num}\n"
         f"E: DEVNAME=/dev/input/event{num}\n"
-        "E: ID_INPUT=1\n"
         f"{props}"
         f"E: MAJOR=13\nE: MINOR={minor}\nE: SUBSYSTEM=input\n"
         f"A: dev=13:{minor}\n"
@@ -131,7 +135,7 @@ def umockdev_text(desc: DeviceDescription, num: int, udev: dict[str, str]) -> st
         f"P: /devices/virtual/input/input{num}\n"
         f'E: NAME="{desc.name}"\n'
         f"E: PRODUCT={desc.bustype:x}/{desc.vendor:x}/{desc.product:x}/{desc.version:x}\n"
-        "E: SUBSYSTEM=input\nE: ID_INPUT=1\n"
+        "E: SUBSYSTEM=input\n"
         f"{props}"
         f"A: name={desc.name}\n"
         f"A: properties={_sysfs_mask(desc.properties)}\n"

@@ -11,10 +11,14 @@ Only what opening a device needs is generated: the doctor reads no events.
 from __future__ import annotations
 
 import struct
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
-from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, DeviceDescription
+from stiction.drivers.evdev.description import DeviceDescription
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "evdev"))
+from evdev_mockfiles import ioctl_text, umockdev_text
 
 HIDRAW_MAJOR = 243
 HID_MAX_DESCRIPTOR_SIZE = 4096
@@ -30,107 +34,20 @@ class Node:
     usb_dev: str | None = None  # the USB device node above a hidraw node
 
 
-def _mask(bits: frozenset[int] | set[int], size: int) -> bytes:
-    out = bytearray(size)
-    for b in bits:
-        if b // 8 < size:
-            out[b // 8] |= 1 << (b % 8)
-    return bytes(out)
-
-
-def _sysfs_mask(bits: frozenset[int] | set[int]) -> str:
-    if not bits:
-        return "0"
-    words = [0] * (max(bits) // 64 + 1)
-    for b in bits:
-        words[b // 64] |= 1 << (b % 64)
-    return " ".join(f"{w:x}" for w in reversed(words))
-
-
-def _types(desc: DeviceDescription) -> set[int]:
-    types = {EV_SYN}
-    if desc.keys:
-        types.add(EV_KEY)
-    if desc.axes:
-        types.add(EV_ABS)
-    types.update(t for t, codes in desc.other.items() if codes)
-    return types
-
-
-def _codes(desc: DeviceDescription, t: int) -> frozenset[int]:
-    if t == EV_KEY:
-        return desc.keys
-    if t == EV_ABS:
-        return frozenset(desc.axes)
-    return desc.other.get(t, frozenset())
-
-
 def evdev_node(
     desc: DeviceDescription, num: int, out: Path, udev: dict[str, str], id_input: bool = True
 ) -> Node:
     """/dev/input/event<num> with `desc`'s identity, capabilities and absinfo.
 
-    `udev` and (with `id_input`) ID_INPUT=1 go into the mocked udev database;
-    without them udev's own input_id builtin classifies the device.
+    The files are the evdev tests' own (evdev_mockfiles); `udev` and (with
+    `id_input`) ID_INPUT=1 go into the mocked udev database, without them
+    udev's input_id builtin classifies the device.
     """
     dev = f"/dev/input/event{num}"
-    name = desc.name.encode()[:255]
-    types = _types(desc)
-    lines = [
-        f"@DEV {dev}",
-        "EVIOCGID 0 "
-        + struct.pack("<4H", desc.bustype, desc.vendor, desc.product, desc.version).hex(),
-        "EVIOCGVERSION 0 " + struct.pack("<i", 0x010001).hex(),
-        f"EVIOCGNAME(0) {len(name) + 1} " + name.ljust(256, b"\0").hex(),
-        "EVIOCGBIT(0) 4 " + _mask(types, 4).hex(),
-        "EVIOCGBIT(0) 8 " + _mask(types, 96).hex(),
-    ]
-    for t in sorted(types - {EV_SYN}):
-        lines.append(
-            f"EVIOCGBIT({t}) {96 if t == EV_KEY else 8} " + _mask(_codes(desc, t), 96).hex()
-        )
-    for code, a in sorted(desc.axes.items()):
-        absinfo = struct.pack(
-            "<6i", a.value, a.minimum, a.maximum, a.fuzz, a.flat, int(a.resolution)
-        )
-        lines.append(f"EVIOCGABS({code}) 0 " + absinfo.hex())
-    lines += [
-        "EVIOCGPROP(0) 4 " + _mask(desc.properties, 4).hex(),
-        "EVIOCGKEY(0) 96 " + bytes(96).hex(),
-        "EVIOCGLED(0) 2 0000",
-        "EVIOCGEFFECTS 0 00000000",
-    ]
     ioctl = out / f"event{num}.ioctl"
-    ioctl.write_text("\n".join(lines) + "\n")
-    minor = 64 + num
-    props = "".join(f"E: {k}={v}\n" for k, v in udev.items())
-    id_line = "E: ID_INPUT=1\n" if id_input else ""
-    caps = {
-        "ev": _sysfs_mask(types),
-        "key": _sysfs_mask(desc.keys),
-        "abs": _sysfs_mask(frozenset(desc.axes)),
-        "msc": _sysfs_mask(desc.other.get(4, frozenset())),
-        "rel": _sysfs_mask(desc.other.get(2, frozenset())),
-    }
-    text = (
-        f"P: /devices/virtual/input/input{num}/event{num}\n"
-        f"N: input/event{num}\n"
-        f"E: DEVNAME={dev}\n{id_line}{props}"
-        f"E: MAJOR=13\nE: MINOR={minor}\nE: SUBSYSTEM=input\n"
-        f"A: dev=13:{minor}\n"
-        f"L: device=../../input{num}\n\n"
-        f"P: /devices/virtual/input/input{num}\n"
-        f'E: NAME="{desc.name}"\n'
-        f"E: PRODUCT={desc.bustype:x}/{desc.vendor:x}/{desc.product:x}/{desc.version:x}\n"
-        f"E: SUBSYSTEM=input\n{id_line}{props}"
-        f"A: name={desc.name}\n"
-        f"A: properties={_sysfs_mask(desc.properties)}\n"
-        f"A: id/bustype={desc.bustype:04x}\nA: id/vendor={desc.vendor:04x}\n"
-        f"A: id/product={desc.product:04x}\nA: id/version={desc.version:04x}\n"
-        + "".join(f"A: capabilities/{k}={v}\n" for k, v in caps.items())
-    )
+    ioctl.write_text(ioctl_text(desc, dev))
     umockdev = out / f"event{num}.umockdev"
-    umockdev.write_text(text)
+    umockdev.write_text(umockdev_text(desc, num, udev, id_input=id_input))
     return Node(dev, umockdev, ioctl)
 
 
