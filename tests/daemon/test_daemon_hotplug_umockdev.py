@@ -23,7 +23,7 @@ import pytest
 EVDEV_TESTS = Path(__file__).resolve().parents[1] / "evdev"
 sys.path.insert(0, str(EVDEV_TESTS))
 
-from evdev_mockfiles import stiction_cmd, write  # noqa: E402
+from evdev_mockfiles import run_controller, write  # noqa: E402
 
 from stiction.drivers.evdev.playback import ReplaySource  # noqa: E402
 from stiction.drivers.evdev.recording import load  # noqa: E402
@@ -96,25 +96,8 @@ def test_unplugged_tablet_ends_its_contact_and_is_reopened_on_udev_add(
     # The live driver reads one sample per frame; the replay adds an end-of-stream one.
     expected = sum(1 for _ in ReplaySource(rec).samples()) - 1
     assert expected == 40
-    controller = EVDEV_TESTS / "evdev_unplug_controller.py"
     reader = READER.format(expected=expected, tmp=tmp_path)
-    proc = subprocess.run(
-        [
-            "umockdev-wrapper",
-            "/usr/bin/python3",
-            str(controller),
-            str(tmp_path),
-            stiction_cmd()[0],
-            reader,
-            "1",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=90,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    out = run_controller(tmp_path, reader, "1", timeout=90)
     lines = out["reader"]
     assert lines[0] == "ready", out
     gone = [json.loads(x) for x in lines if x.startswith('{"error"')]

@@ -10,12 +10,14 @@ otherwise).
 
 from __future__ import annotations
 
+import json
 import shutil
 import struct
 import subprocess
 import sys
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, DeviceDescription
 from stiction.drivers.evdev.evemu import write_events
@@ -192,6 +194,29 @@ def run_under_umockdev(
             f"timed out after {timeout} s: {argv}\nstdout: {out[-2000:]}\nstderr: {err[-2000:]}"
         ) from None
     return subprocess.CompletedProcess(cmd, proc.returncode, out, err)
+
+
+def run_controller(
+    directory: Path, reader: str, *args: str, timeout: float = 60.0
+) -> dict[str, Any]:
+    """Run `reader` against the mocked nodes in `directory` under the GI controller
+    (evdev_unplug_controller.py, system python3), and return the controller's report.
+
+    The controller is what can unplug a node with a real ENODEV, count EVIOCGRAB
+    calls or answer SYN_DROPPED re-queries (umockdev-evdev.md, section 6).
+    """
+    controller = Path(__file__).with_name("evdev_unplug_controller.py")
+    argv = [str(controller), str(directory), stiction_cmd()[0], reader, *args]
+    proc = subprocess.run(
+        ["umockdev-wrapper", "/usr/bin/python3", *argv],
+        capture_output=True,
+        text=True,
+        timeout=timeout,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    report: dict[str, Any] = json.loads(proc.stdout.strip().splitlines()[-1])
+    return report
 
 
 def stiction_cmd(*args: str) -> list[str]:

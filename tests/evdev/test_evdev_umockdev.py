@@ -15,7 +15,13 @@ import textwrap
 from pathlib import Path
 
 import pytest
-from evdev_mockfiles import run_under_umockdev, stiction_cmd, umockdev_available, write
+from evdev_mockfiles import (
+    run_controller,
+    run_under_umockdev,
+    stiction_cmd,
+    umockdev_available,
+    write,
+)
 
 from stiction.drivers.evdev import replay, sizes
 from stiction.drivers.evdev.cli import frame_json
@@ -244,7 +250,6 @@ def _gi_available() -> bool:
 def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
     evdev_data: Path, tmp_path: Path
 ) -> None:
-    import subprocess
 
     name = "wacom-cintiq-13hd-touch-pen.evemu"
     rec = load(evdev_data / name)
@@ -253,24 +258,7 @@ def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
     rec.events = rec.events[: syn[39] + 1]
     write(rec, tmp_path, num=5, udev={"ID_INPUT_TABLET": "1"})
     write(rec, tmp_path, num=6, udev={"ID_INPUT_TABLET": "1"})
-    controller = Path(__file__).with_name("evdev_unplug_controller.py")
-    proc = subprocess.run(
-        [
-            "umockdev-wrapper",
-            "/usr/bin/python3",
-            str(controller),
-            str(tmp_path),
-            stiction_cmd()[0],
-            UNPLUG_READER,
-            "40",
-        ],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    out = run_controller(tmp_path, UNPLUG_READER, "40")
     lines = out["reader"]
     assert lines[0] == "ready", out
     samples = [json.loads(x) for x in lines if x.startswith("[")]
@@ -307,20 +295,9 @@ CRASH_READER = textwrap.dedent(
 
 @pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
 def test_grab_is_released_when_the_consumer_crashes(evdev_data: Path, tmp_path: Path) -> None:
-    import subprocess
 
     write(load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu"), tmp_path, num=5)
-    controller = Path(__file__).with_name("evdev_unplug_controller.py")
-    argv = [str(controller), str(tmp_path), stiction_cmd()[0], CRASH_READER, "0", "crash"]
-    proc = subprocess.run(
-        ["umockdev-wrapper", "/usr/bin/python3", *argv],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    out = run_controller(tmp_path, CRASH_READER, "0", "crash")
     assert "RuntimeError: a bug in the consumer" in out["stderr"]
     assert out["returncode"] == 1
     assert out["grabs"] == [1, 0]  # EVIOCGRAB 1 on open, EVIOCGRAB 0 on the way out
@@ -359,7 +336,6 @@ def test_syn_dropped_on_a_live_device_resyncs_from_the_kernel_state(
     The mocked kernel answers with the true state after the damaged frame, so
     the frame reported after the resync must equal the recording's own frame.
     """
-    import subprocess
 
     from evdev import ecodes as e
 
@@ -403,17 +379,7 @@ def test_syn_dropped_on_a_live_device_resyncs_from_the_kernel_state(
         src.close()
         """
     )
-    controller = Path(__file__).with_name("evdev_unplug_controller.py")
-    argv = [str(controller), str(tmp_path), stiction_cmd()[0], reader, "0", "run"]
-    proc = subprocess.run(
-        ["umockdev-wrapper", "/usr/bin/python3", *argv],
-        capture_output=True,
-        text=True,
-        timeout=60,
-        check=False,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out = json.loads(proc.stdout.strip().splitlines()[-1])
+    out = run_controller(tmp_path, reader, "0", "run")
     assert out["returncode"] == 0, out["stderr"]
     lines = [json.loads(x) for x in out["reader"][1:]]
     stats = lines.pop()["stats"]
