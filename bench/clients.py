@@ -12,7 +12,8 @@ conflation (draining the queue, keeping the newest per device).
 Transcoding for the web bridge: P pages watching; the naive bridge turns the
 frame into JSON once per page, the real one once per frame.
 
-Both tables are microseconds per frame, min of 5 repeats.
+Both tables are microseconds per frame, min of 5 repeats; written to
+bench/results/clients.{txt,json}.
 """
 
 from __future__ import annotations
@@ -22,6 +23,7 @@ import json
 import sys
 import time
 from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Any
 
 import msgpack
@@ -30,6 +32,8 @@ import zmq
 from stiction import protocol
 from stiction.clients import Frame, Subscriber
 from stiction.clients.messages import wire_to_json
+
+RESULTS = Path(__file__).resolve().parent / "results"
 
 
 def sample_frame(tick: int) -> dict[str, Any]:
@@ -184,18 +188,18 @@ def main(argv: Sequence[str]) -> int:
         (f"naive: json.dumps per page ({pages} pages)", best(per_page) / len(frames) * 1e6),
         ("bridge: wire_to_json once per frame", best(once) / len(frames) * 1e6),
     ]
-    if args.json:
-        print(json.dumps({"read_us_per_frame": dict(read), "transcode_us_per_frame": dict(trans)}))
-        return 0
     base = read[0][1]
-    print(f"reading {n} queued frames (2 contacts each), us per frame, min of 5")
-    print(f"{'reader':<42}{'us/frame':>10}{'x naive':>10}")
-    for name, us in read:
-        print(f"{name:<42}{us:>10.2f}{us / base:>10.2f}")
-    print()
-    print(f"web bridge transcoding, us per frame, {pages} pages watching")
-    for name, us in trans:
-        print(f"{name:<42}{us:>10.2f}{us / trans[0][1]:>10.2f}")
+    lines = [f"reading {n} queued frames (2 contacts each), us per frame, min of 5"]
+    lines.append(f"{'reader':<42}{'us/frame':>10}{'x naive':>10}")
+    lines += [f"{name:<42}{us:>10.2f}{us / base:>10.2f}" for name, us in read]
+    lines += ["", f"web bridge transcoding, us per frame, {pages} pages watching"]
+    lines += [f"{name:<42}{us:>10.2f}{us / trans[0][1]:>10.2f}" for name, us in trans]
+    table = "\n".join(lines)
+    result = {"read_us_per_frame": dict(read), "transcode_us_per_frame": dict(trans)}
+    RESULTS.mkdir(parents=True, exist_ok=True)
+    (RESULTS / "clients.txt").write_text(table + "\n")
+    (RESULTS / "clients.json").write_text(json.dumps(result, indent=2) + "\n")
+    print(json.dumps(result) if args.json else table)
     return 0
 
 
