@@ -70,6 +70,20 @@ class Recording:
                 yield msg
 
 
+def meta_json(meta: dict[str, Any], *, frames: int, messages: int) -> str:
+    """The ``meta`` array's JSON: the format markers around the recorder's metadata.
+    One place for it, as the spool (spool.py) assembles files without write()."""
+    full_meta = {
+        "format": FORMAT,
+        "format_version": FORMAT_VERSION,
+        "schema_version": protocol.SCHEMA_VERSION,
+        **meta,
+        "frames": frames,
+        "messages": messages,
+    }
+    return json.dumps(full_meta, allow_nan=False, default=str)
+
+
 def write(
     path: str | Path,
     messages: list[tuple[bytes, bytes, float]],
@@ -86,14 +100,6 @@ def write(
     offsets = np.zeros(len(messages) + 1, dtype=np.int64)
     np.cumsum(sizes, out=offsets[1:])
     payloads = np.frombuffer(b"".join(p for _, p, _ in messages), dtype=np.uint8)
-    full_meta = {
-        "format": FORMAT,
-        "format_version": FORMAT_VERSION,
-        "schema_version": protocol.SCHEMA_VERSION,
-        **meta,
-        "frames": len(frames),
-        "messages": len(messages),
-    }
     arrays: dict[str, Any] = {
         **table.as_dict(),
         "messages": payloads,
@@ -102,7 +108,7 @@ def write(
             [t.decode("utf-8", "replace") for t, _, _ in messages], dtype=np.str_
         ),
         "message_recv_t": np.asarray([r for _, _, r in messages], dtype=np.float64),
-        "meta": np.asarray(json.dumps(full_meta, allow_nan=False, default=str)),
+        "meta": np.asarray(meta_json(meta, frames=len(frames), messages=len(messages))),
     }
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".tmp", dir=path.parent)
