@@ -1,8 +1,23 @@
-"""`stiction record`: subscribe, keep everything, write one .npz at the end.
+"""`stiction record`: subscribe, spool as it goes, write one .npz at the end.
 
 The metadata that makes a recording interpretable later (the scene, the
 material parameters, the devices) is asked of the control endpoint once at
 start; a daemon without one still gets recorded, and the file says so.
+
+A session is never held in memory whole, and a killed recorder does not lose
+it: received messages are kept a chunk at a time (``spool.CHUNK`` messages,
+or ``spool.FLUSH_EVERY`` second, whichever fills first) and each chunk is
+appended, as columns plus the raw messages, to ``<out>.partial`` and synced.
+A clean stop (count, seconds, idle, Ctrl-C, SIGTERM) streams the .npz from
+that spool, chunk by chunk, and deletes it. After a SIGKILL, an OOM kill or
+a power cut the spool holds everything up to the last flushed chunk, and
+
+    python -m stiction.clients.record --recover trial.npz.partial
+
+writes it as ``trial.npz`` in the same format (``meta["recovered"]`` says so);
+the next ``stiction record --out trial.npz`` also recovers a leftover spool on
+its own, into ``trial.recovered.npz``, before it starts. Why one append-only
+file of checksummed chunk records, and how assembly streams: spool.py.
 """
 
 from __future__ import annotations
@@ -21,12 +36,12 @@ from types import FrameType
 from typing import Any
 
 from stiction import __version__, protocol
-from stiction.clients import control, recording
+from stiction.clients import control, spool
 from stiction.clients.curve import CurveKeys
-from stiction.clients.messages import Frame, SceneMessage
+from stiction.clients.messages import SceneMessage
 from stiction.clients.stream import SubscriberStats
 from stiction.clients.subscriber import Subscriber
-from stiction.errors import ProtocolError, RecordingError
+from stiction.errors import ProtocolError, RecordingError, StictionError
 
 log = logging.getLogger("stiction.clients.record")
 
@@ -38,6 +53,8 @@ class RecordResult:
     contacts: int
     scenes: int
     bad: int
+    recovered: Path | None = None
+    """Where a spool left by an earlier, killed recorder of the same file went."""
 
 
 def fetch_metadata(
@@ -77,27 +94,40 @@ def record(
     devices: Sequence[str] | None = None,
     stop: threading.Event | None = None,
     curve: CurveKeys | None = None,
+    chunk: int = spool.CHUNK,
+    flush_every: float = spool.FLUSH_EVERY,
+    fsync: bool = True,
 ) -> RecordResult:
     """Record until ``count`` frames, ``seconds``, ``idle`` seconds of silence
-    after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``."""
+    after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``.
+
+    While recording, messages go to the spool ``out.partial`` every ``chunk``
+    messages or ``flush_every`` seconds (module doc); a spool left there by a
+    recorder that was killed is first recovered into ``<stem>.recovered.npz``.
+    """
     out = Path(out)
     if out.suffix != ".npz":
         raise RecordingError(f"{out}: recordings are numpy .npz files; name it *.npz")
-    meta = fetch_metadata(control_endpoint, curve=curve)
-    reachable = "control_error" not in meta
-    meta.update(
-        endpoint=endpoint,
-        devices_filter=list(devices) if devices else None,
-        started_utc=datetime.now(UTC).isoformat(),
-        stiction_version=__version__,
-    )
-    messages: list[tuple[bytes, bytes, float]] = []
-    frames: list[Frame] = []
-    scenes: list[dict[str, Any]] = []
-    t0 = last_t = time.monotonic()
-    end = None if seconds is None else t0 + seconds
+    if chunk < 1 or not flush_every > 0:
+        raise RecordingError(f"chunk ({chunk}) and flush_every ({flush_every}) must be positive")
+    recovered = recover_leftover(out)
+    writer = spool.SpoolWriter.create(spool.spool_path(out), fsync=fsync)
+    t0 = last_t = last_flush = time.monotonic()
     sub: Subscriber | None = None
+    stats = SubscriberStats()
+    stopped_by: StictionError | None = None
     try:
+        meta = fetch_metadata(control_endpoint, curve=curve)
+        reachable = "control_error" not in meta
+        meta.update(
+            endpoint=endpoint,
+            devices_filter=list(devices) if devices else None,
+            started_utc=datetime.now(UTC).isoformat(),
+            stiction_version=__version__,
+        )
+        writer.write_meta(meta)
+        t0 = last_t = last_flush = time.monotonic()
+        end = None if seconds is None else t0 + seconds
         sub = Subscriber(
             endpoint,
             devices=devices,
@@ -105,7 +135,7 @@ def record(
             control=control_endpoint if reachable else None,
             curve=curve,
         )
-        while count is None or len(frames) < count:
+        while count is None or writer.frames < count:
             if stop is not None and stop.is_set():
                 break
             now = time.monotonic()
@@ -113,37 +143,81 @@ def record(
                 break
             wait = 0.2 if end is None else min(0.2, end - now)
             msg = sub.recv(wait)
-            if msg is None:
-                if idle is not None and frames and time.monotonic() - last_t >= idle:
-                    break
-                continue
-            last_t = time.monotonic()
-            if isinstance(msg, SceneMessage):
-                topic = protocol.TOPIC_SCENE
-                scenes.append({"tick": msg.tick, "scene": msg.scene})
-            else:
-                topic = protocol.frame_topic(msg.device)
-                frames.append(msg)
-            messages.append((topic, protocol.encode(msg.wire), last_t - t0))
+            now = time.monotonic()
+            if msg is not None:
+                last_t = now
+                if isinstance(msg, SceneMessage):
+                    topic = protocol.TOPIC_SCENE
+                else:
+                    topic = protocol.frame_topic(msg.device)
+                writer.add(topic, protocol.encode(msg.wire), last_t - t0, msg)
+            if writer.pending >= chunk or (writer.pending and now - last_flush >= flush_every):
+                writer.flush(asdict(sub.stats), now - t0)
+                last_flush = now
+                log.debug("spooled %d frames to %s", writer.flushed_frames, writer.path)
+            if msg is None and idle is not None and writer.frames and now - last_t >= idle:
+                break
     except KeyboardInterrupt:
         pass  # Ctrl-C ends a recording; what was received is still written
+    except StictionError as exc:
+        if writer.broken:
+            writer.close()  # cannot write on: the spool keeps what was flushed
+            raise
+        if not writer.frames and not writer.scenes:
+            writer.discard()  # e.g. a bad endpoint: nothing to keep
+            raise
+        stopped_by = exc  # e.g. a newer schema from the daemon: write what came before
+    except BaseException:
+        writer.close()  # a bug: the spool keeps what was flushed; the traceback says why
+        raise
     finally:
-        stats = sub.stats if sub is not None else SubscriberStats()
         if sub is not None:
+            stats = sub.stats
             sub.close()
-    if meta.get("scene") is None and scenes:
-        meta["scene"] = scenes[0]["scene"]
-    meta["scene_changes"] = scenes
-    meta["subscriber_stats"] = asdict(stats)
-    meta["duration_s"] = time.monotonic() - t0
-    path = recording.write(out, messages, frames, meta)
+    try:
+        summary = writer.finish(out, asdict(stats), time.monotonic() - t0)
+    except BaseException:
+        writer.close()
+        raise
+    if stopped_by is not None:
+        raise RecordingError(
+            f"{stopped_by}; recording stopped, {summary.frames} frames received before "
+            f"were written to {out}"
+        ) from stopped_by
     return RecordResult(
-        path=path,
-        frames=len(frames),
-        contacts=sum(len(f.contacts) for f in frames),
-        scenes=len(scenes),
+        path=out,
+        frames=summary.frames,
+        contacts=summary.contacts,
+        scenes=summary.scene_count,
         bad=stats.bad,
+        recovered=recovered,
     )
+
+
+def recover_leftover(out: Path) -> Path | None:
+    """A spool that a killed recorder of ``out`` left: recover it into
+    ``<stem>.recovered.npz`` (``-2``, ``-3`` ... if taken), so the new session
+    can spool in its place and nothing of the old one is lost. Returns where
+    it went, or None when there was none (or it held no message)."""
+    path = spool.spool_path(out)
+    if not path.exists():
+        return None
+    target = out.with_name(f"{out.stem}.recovered.npz")
+    n = 1
+    while target.exists():
+        n += 1
+        target = out.with_name(f"{out.stem}.recovered-{n}.npz")
+    summary = spool.recover(path, target, keep_empty=False)
+    if summary.output is None:
+        log.warning("%s: a killed recorder left it without a single message; deleted", path)
+        return None
+    log.warning(
+        "%s: a killed recorder left it; recovered %d frames into %s",
+        path,
+        summary.frames,
+        summary.output,
+    )
+    return summary.output
 
 
 @contextlib.contextmanager
@@ -168,9 +242,47 @@ def stop_on_signals() -> Iterator[threading.Event]:
 
 
 def report(result: RecordResult) -> None:
+    if result.recovered is not None:
+        print(
+            f"stiction record: recovered the session a killed recorder left to {result.recovered}",
+            file=sys.stderr,
+        )
     print(
         f"stiction record: wrote {result.frames} frames ({result.contacts} contacts, "
         f"{result.scenes} scene messages) to {result.path}"
         + (f"; skipped {result.bad} malformed" if result.bad else ""),
         file=sys.stderr,
     )
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """``python -m stiction.clients.record --recover SPOOL [--out FILE.npz]``."""
+    import argparse
+
+    parser = argparse.ArgumentParser(
+        prog="python -m stiction.clients.record",
+        description="Turn the spool that a killed `stiction record` left (FILE.npz.partial) "
+        "into the recording it was writing. Everything up to the last flushed chunk is in it.",
+    )
+    parser.add_argument("--recover", metavar="SPOOL", required=True, help="a *.npz.partial spool")
+    parser.add_argument("--out", help="recording to write (default: SPOOL without .partial)")
+    parser.add_argument("--force", action="store_true", help="replace --out if it exists")
+    args = parser.parse_args(argv)
+    logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    try:
+        summary = spool.recover(args.recover, args.out, overwrite=args.force)
+    except StictionError as exc:
+        print(f"stiction record: error: {exc}", file=sys.stderr)
+        return 2
+    print(
+        f"stiction record: recovered {summary.frames} frames ({summary.contacts} contacts, "
+        f"{summary.scene_count} scene messages"
+        + ("" if summary.final else "; the chunk not yet flushed when it stopped is lost")
+        + f") from {args.recover} to {summary.output}",
+        file=sys.stderr,
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

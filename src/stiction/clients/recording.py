@@ -17,6 +17,10 @@ Contents (all arrays; see docs/clients.md for the table):
   including keys this version of stiction does not know;
 - ``meta``: one JSON string: format and schema versions, endpoints, start
   time, and the scene and parameters fetched from the control endpoint.
+
+``write`` builds a file from messages held in memory. ``stiction record``
+does not use it: it streams the same arrays from its spool (spool.py), and
+the tests check the two files are equal.
 """
 
 from __future__ import annotations
