@@ -332,7 +332,7 @@ def test_a_sigkilled_recorder_is_recovered_from_its_spool(
     assert part.exists() and not out.exists()
 
     done = subprocess.run(
-        [sys.executable, "-m", "stiction.clients.record", "--recover", str(part)],
+        [sys.executable, "-m", "stiction", "record", "--recover", str(part)],
         capture_output=True,
         text=True,
         timeout=60,
@@ -423,7 +423,7 @@ def test_a_full_disk_stops_the_recorder_and_keeps_the_spool(
     part = spool.spool_path(out)
     assert err.startswith("stiction: error:") and "Traceback" not in err
     assert f"{part}: cannot write the recording spool (File too large)" in err
-    assert f"python -m stiction.clients.record --recover {part}" in err
+    assert f"stiction record --recover {part}" in err
     assert part.exists() and not out.exists()
     summary = spool.recover(part)  # whatever was flushed before is intact
     got = [f.wire for f in rec_mod.read(out).frames()]

@@ -7,6 +7,7 @@ load numpy or aiohttp.
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from stiction import protocol
@@ -81,8 +82,13 @@ def _listen(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
-    from stiction.clients.record import record, report, stop_on_signals
+    from stiction.clients.record import record, recover_spool, report, stop_on_signals
 
+    if args.recover:
+        return recover_spool(args.recover, args.out, args.force)
+    if not args.out:
+        print("stiction record: error: --out FILE.npz is required", file=sys.stderr)
+        return 2
     ctl = None if args.no_control else (args.control or default_control(args.endpoint))
     with stop_on_signals() as stop:
         result = record(
@@ -154,7 +160,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "the file is written in every case.",
     )
     p.add_argument("endpoint", nargs="?", default=protocol.DEFAULT_PUB, help="publisher endpoint")
-    p.add_argument("--out", required=True, help="output file, *.npz")
+    p.add_argument("--out", help="output file, *.npz (required unless --recover)")
+    p.add_argument(
+        "--recover",
+        metavar="SPOOL",
+        help="turn the FILE.npz.partial spool a killed recorder left into its recording "
+        "(--out: where to write it; default: the name it was recording to)",
+    )
+    p.add_argument("--force", action="store_true", help="--recover: replace --out if it exists")
     p.add_argument(
         "--control",
         help="control endpoint for scene and parameters "

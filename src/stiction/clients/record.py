@@ -12,7 +12,7 @@ A clean stop (count, seconds, idle, Ctrl-C, SIGTERM) streams the .npz from
 that spool, chunk by chunk, and deletes it. After a SIGKILL, an OOM kill or
 a power cut the spool holds everything up to the last flushed chunk, and
 
-    python -m stiction.clients.record --recover trial.npz.partial
+    stiction record --recover trial.npz.partial
 
 writes it as ``trial.npz`` in the same format (``meta["recovered"]`` says so);
 the next ``stiction record --out trial.npz`` also recovers a leftover spool on
@@ -269,8 +269,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser.add_argument("--force", action="store_true", help="replace --out if it exists")
     args = parser.parse_args(argv)
     logging.basicConfig(level=logging.WARNING, format="%(levelname)s %(name)s: %(message)s")
+    return recover_spool(args.recover, args.out, args.force)
+
+
+def recover_spool(path: str, out: str | None, force: bool) -> int:
+    """`stiction record --recover`: one line saying what was recovered, or the error."""
     try:
-        summary = spool.recover(args.recover, args.out, overwrite=args.force)
+        summary = spool.recover(path, out, overwrite=force)
     except StictionError as exc:
         print(f"stiction record: error: {exc}", file=sys.stderr)
         return 2
@@ -278,7 +283,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         f"stiction record: recovered {summary.frames} frames ({summary.contacts} contacts, "
         f"{summary.scene_count} scene messages"
         + ("" if summary.final else "; the chunk not yet flushed when it stopped is lost")
-        + f") from {args.recover} to {summary.output}",
+        + f") from {path} to {summary.output}",
         file=sys.stderr,
     )
     return 0

@@ -8,7 +8,7 @@ messages in memory and appends it to a spool next to the output,
 ``<out>.partial`` (``trial.npz`` -> ``trial.npz.partial``), every ``CHUNK``
 messages or every ``FLUSH_EVERY`` seconds, whichever comes first. A clean stop
 assembles the .npz from the spool and deletes the spool; a killed recorder
-leaves it, and ``recover()`` (``python -m stiction.clients.record --recover
+leaves it, and ``recover()`` (``stiction record --recover
 trial.npz.partial``, or simply the next ``stiction record --out trial.npz``)
 turns it into the same .npz format, minus the chunk that was not yet flushed.
 
@@ -112,7 +112,7 @@ def default_output(spool: str | Path) -> Path:
 
 def recover_command(spool: Path) -> str:
     """What to run to turn a spool into a recording, for error messages."""
-    return f"python -m stiction.clients.record --recover {spool}"
+    return f"stiction record --recover {spool}"
 
 
 def _why(exc: OSError) -> str:
