@@ -59,6 +59,7 @@ class FrameWire(TypedDict):
     v: int
     kind: Literal["frame"]
     tick: int
+    prev_tick: NotRequired[int]
     t: float
     t_input: float | None
     device: str
@@ -133,6 +134,10 @@ def validate_frame(message: Mapping[str, Any]) -> FrameWire:
     tick = message.get("tick")
     if not isinstance(tick, int) or isinstance(tick, bool):
         raise ProtocolError("frame 'tick' must be an integer")
+    if "prev_tick" in message:
+        prev = message["prev_tick"]
+        if not isinstance(prev, int) or isinstance(prev, bool) or not -1 <= prev < tick:
+            raise ProtocolError("frame 'prev_tick' must be an integer from -1 to tick - 1")
     _num(message.get("t"), "frame 't'")
     if message.get("t_input") is not None:
         _num(message.get("t_input"), "frame 't_input'")

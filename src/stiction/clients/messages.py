@@ -71,6 +71,9 @@ class Frame:
     device: str
     contacts: tuple[Contact, ...]
     wire: protocol.FrameWire
+    prev_tick: int | None = None
+    """Tick of this device's previous frame (-1: the first); None from a
+    daemon that does not say. Ticks between it and `tick` had nothing new."""
 
     kind = "frame"
 
@@ -105,6 +108,7 @@ class Frame:
             device=wire["device"],
             contacts=tuple(contacts),
             wire=wire,
+            prev_tick=wire.get("prev_tick"),
         )
 
     def to_json(self) -> str:

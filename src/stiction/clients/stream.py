@@ -41,7 +41,11 @@ class SubscriberStats:
     """Messages replaced, unread and undecoded, by a newer one on the same topic
     (one stream per device, plus the scene) when conflating."""
     missed: int = 0
-    """Ticks never seen: gaps in a device's tick sequence (slow reader, reconnect)."""
+    """Frames never seen (slow reader, reconnect). A frame whose ``prev_tick``
+    is not the last tick seen for its device follows lost frames; the ticks in
+    between are counted, which is exact while a device is active (a frame
+    every tick) and an upper bound across a quiet stretch. Ticks the daemon
+    held back (``prev_tick`` equal to the last tick seen) never count."""
     restarts: int = 0
     """Times a device's ticks went backwards: the daemon restarted."""
     disconnects: int = 0
@@ -166,9 +170,12 @@ class StreamState:
             if frame.tick <= last:
                 self.stats.restarts += 1
                 log.info("device %s restarted its ticks (%d after %d)", dev, frame.tick, last)
-            elif frame.tick > last + 1:
-                # Frames conflation replaced were received, not missed.
-                self.stats.missed += max(0, frame.tick - last - 1 - self._replaced)
+            else:
+                # Ticks the daemon held back (nothing new) are not missing.
+                prev = frame.prev_tick if frame.prev_tick is not None else frame.tick - 1
+                if prev > last:
+                    # Frames conflation replaced were received, not missed.
+                    self.stats.missed += max(0, prev - last - self._replaced)
         self._last_tick[dev] = frame.tick
         return True
 
