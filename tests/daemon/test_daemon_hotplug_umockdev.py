@@ -53,7 +53,9 @@ READER = textwrap.dedent(
         elif phase[0] == "unplug" and fresh and any(c["phase"] == "up" for c in f["contacts"]):
             phase[0] = "gone"
             print(json.dumps({{"error": "gone", "frame": f}}), flush=True)
-        elif phase[0] == "gone" and slot.run is None:
+        # The tick that ended the device also let it go; with no device left
+        # the daemon idles (no ticks) until the hot-plug watcher wakes it.
+        if phase[0] == "gone" and slot.run is None:
             phase[0] = "absent"
             print(json.dumps({{"reopen_failed": slot.state}}), flush=True)
         elif phase[0] == "absent" and replugged.is_set() and fresh:

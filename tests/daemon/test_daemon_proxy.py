@@ -21,6 +21,7 @@ def test_proxy_forwards_frames_and_subscriptions(tmp_path: Path) -> None:
     d = make_daemon(
         (f"ipc://{tmp_path}/pub", f"ipc://{tmp_path}/ctl"),
         {"pen": ListSource(stroke(n=20), gate=gate)},
+        keepalive=0,  # a frame every tick, so consecutive ticks show nothing was lost
     )
     backend = f"ipc://{tmp_path}/proxy"
     pctx = zmq.Context()

@@ -76,6 +76,7 @@ def test_only_authorised_peers_are_accepted(keys: dict[str, Path]) -> None:
         ("tcp://127.0.0.1:*", "tcp://127.0.0.1:*"),
         {"pen": ListSource(stroke(n=20), gate=gate)},
         curve=curve,
+        keepalive=0,  # a frame every tick, pen down or not: 20 come quickly
     )
     assert d.publisher is not None and d.control is not None
     pub, ctl = d.publisher.endpoint, d.control.endpoint

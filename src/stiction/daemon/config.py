@@ -35,6 +35,8 @@ _DAEMON_KEYS = {
     "hwm",
     "late_threshold_ms",
     "hotplug",
+    "keepalive",
+    "spin_ms",
 }
 _SIM_KEYS = {"integrator", "substeps", "k", "m", "g", "mu_s", "mu_k", "C_l"}
 _CURVE_KEYS = {"secret_key", "authorized_keys", "required"}
@@ -127,6 +129,16 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         opts.hwm = int(hwm)
     if "late_threshold_ms" in d:
         opts.late_threshold_ms = r.number(d["late_threshold_ms"], ("daemon", "late_threshold_ms"))
+    if "keepalive" in d:
+        keepalive = r.number(d["keepalive"], ("daemon", "keepalive"), positive=False)
+        if keepalive < 0:
+            r.fail(("daemon", "keepalive"), "must be 0 (every tick) or more seconds")
+        opts.keepalive = keepalive
+    if "spin_ms" in d:
+        spin = r.number(d["spin_ms"], ("daemon", "spin_ms"), positive=False)
+        if not 0 <= spin <= 5:
+            r.fail(("daemon", "spin_ms"), "must be from 0 to 5 (milliseconds)")
+        opts.spin_ms = spin
     if "hotplug" in d:
         if not isinstance(d["hotplug"], bool):
             r.fail(("daemon", "hotplug"), "must be true or false")

@@ -13,6 +13,7 @@ from __future__ import annotations
 import logging
 import queue
 import threading
+from collections.abc import Callable
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -29,7 +30,14 @@ log = logging.getLogger("stiction.daemon.control")
 
 
 class ControlServer:
-    def __init__(self, ctx: zmq.Context[Any], endpoint: str, guard: Guard, daemon: Daemon) -> None:
+    def __init__(
+        self,
+        ctx: zmq.Context[Any],
+        endpoint: str,
+        guard: Guard,
+        daemon: Daemon,
+        on_request: Callable[[], None] = lambda: None,
+    ) -> None:
         self.sock = ctx.socket(zmq.REP)
         self.sock.linger = 0
         self.sock.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
@@ -40,6 +48,8 @@ class ControlServer:
             raise
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
         self.daemon = daemon
+        self._on_request = on_request
+        """Called after a request is queued: wakes an idle loop to answer it."""
         self.requests = 0
         self.errors = 0
         self._inbox: queue.SimpleQueue[_Pending] = queue.SimpleQueue()
@@ -56,6 +66,7 @@ class ControlServer:
                 payload = sock.recv()
                 pending = _Pending(payload)
                 self._inbox.put(pending)
+                self._on_request()
                 while not pending.done.wait(0.25):
                     if self._stop.is_set():
                         sock.send(protocol.error_reply("stictiond is stopping"))
@@ -65,6 +76,9 @@ class ControlServer:
             pass
         finally:
             sock.close(linger=0)
+
+    def has_pending(self) -> bool:
+        return not self._inbox.empty()
 
     def serve_pending(self) -> None:
         """Answer every request that has arrived (loop thread only)."""

@@ -27,6 +27,7 @@ from typing import Any
 
 from stiction.daemon.mapping import MappingConfig
 from stiction.daemon.stats import RateMeter
+from stiction.daemon.wake import Waker
 from stiction.drivers.sample import PenSample
 from stiction.drivers.source import SampleSource
 from stiction.errors import DeviceError, StictionError
@@ -189,6 +190,12 @@ class DeviceSlot:
     thread: threading.Thread | None = None
     iterator: Iterator[PenSample] | None = None
     lookahead: PenSample | None = None
+    sent_tick: int = -1
+    """Tick of the last frame published for this device (the next frame's prev_tick)."""
+    sent_t: float = -math.inf
+    quiet: bool = False
+    """Its last frame had no contact and no new input: frames after it are
+    held back until something changes (or a keep-alive is due)."""
 
     def driver_stats(self) -> dict[str, int]:
         if self.source is None:
@@ -213,16 +220,24 @@ def valid(s: PenSample) -> bool:
         return False
 
 
-def start_reader(slot: DeviceSlot, on_gone: Callable[[DeviceSlot], None]) -> None:
-    """Read `slot.source` on a thread until it ends, fails or is closed."""
+def start_reader(
+    slot: DeviceSlot, on_gone: Callable[[DeviceSlot], None], waker: Waker | None = None
+) -> None:
+    """Read `slot.source` on a thread until it ends, fails or is closed.
+
+    Each sample is queued before `waker` is told, so an idle loop that wakes
+    finds it (see stiction.daemon.wake)."""
     source = slot.source
     assert source is not None
     queue = slot.queue
+    waker = waker or Waker()
 
     def run() -> None:
         try:
             for s in source.samples():
                 queue.append((s, time.monotonic()))
+                if waker.armed:
+                    waker.wake()
             if slot.state == "open":
                 slot.state = "ended"
                 log.info("device_ended device=%s", slot.name)
@@ -238,6 +253,7 @@ def start_reader(slot: DeviceSlot, on_gone: Callable[[DeviceSlot], None]) -> Non
             on_gone(slot)
         finally:
             slot.went_away = True
+            waker.wake()
 
     slot.went_away = False
     slot.thread = threading.Thread(target=run, name=f"reader {slot.name}", daemon=True)

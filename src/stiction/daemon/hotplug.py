@@ -31,12 +31,15 @@ class Hotplug:
         opener: Callable[[DeviceSlot], SampleSource] | None = None,
         use_udev: bool = True,
         discover: Callable[[], list[str]] | None = None,
+        on_ready: Callable[[], None] = lambda: None,
     ) -> None:
         self._slots = slots
         self._open = opener or (lambda s: open_source(s.spec, s.config, True, True))
         self._discover = discover
         """With no devices named, new tablets are picked up: returns the specs present."""
         self.ready: queue.SimpleQueue[tuple[DeviceSlot, SampleSource]] = queue.SimpleQueue()
+        self._on_ready = on_ready
+        """Called after a device is queued for the loop: wakes an idle loop."""
         self._wake = threading.Event()
         self._stop = threading.Event()
         self._opening: set[int] = set()
@@ -93,6 +96,7 @@ class Hotplug:
                 continue
             self._opening.add(id(slot))
             self.ready.put((slot, source))
+            self._on_ready()
             opened += 1
         return opened
 

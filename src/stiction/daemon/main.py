@@ -48,6 +48,18 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--seconds", type=float, metavar="S", help="stop after S seconds of ticks")
     p.add_argument("--integrator", help="simulator integrator (see stiction simulate)")
     p.add_argument("--hwm", type=int, help="PUB high-water mark per subscriber (messages)")
+    p.add_argument(
+        "--keepalive",
+        type=float,
+        metavar="S",
+        help="seconds between frames of a device with nothing new (default 1; 0: every tick)",
+    )
+    p.add_argument(
+        "--spin-ms",
+        type=float,
+        metavar="MS",
+        help="wake this early and poll the clock to each deadline (default 0.3; 0: just sleep)",
+    )
     p.add_argument("--curve-secret-key", type=Path, metavar="FILE", help="daemon .key_secret")
     p.add_argument("--curve-authorized", type=Path, metavar="DIR", help="authorised client keys")
     p.add_argument(
@@ -72,7 +84,9 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
     if args.scene:
         opts.scene = args.scene
         opts.scene_from_flag = True
-    for name in ("pub", "control", "clock", "rate", "seconds", "integrator", "hwm"):
+    for name in (
+        "pub", "control", "clock", "rate", "seconds", "integrator", "hwm", "keepalive", "spin_ms"
+    ):  # fmt: skip
         value = getattr(args, name)
         if value is not None:
             setattr(opts, name, value)

@@ -2,14 +2,23 @@
 
 `Daemon.run` is the loop. Each tick it takes every sample each device
 delivered since the previous tick (never waiting for a device), advances the
-scene pipeline to the tick time, publishes one frame per device, and spends
+scene pipeline to the tick time, publishes a frame per device, and spends
 the rest of the period answering control requests and sleeping to the next
 absolute deadline. Anything a user or device can get wrong is logged and
 counted; the loop keeps the last good state and carries on.
+
+A frame that says nothing new (no input since the last one, the same
+contacts) is held back, apart from a keep-alive every `keepalive` seconds;
+each frame names the tick of the one before it, so a client still tells a
+held-back frame from a lost one. When no device has a contact or pending
+input the loop stops ticking altogether and sleeps until a producer wakes it
+(stiction.daemon.wake): a daemon left running beside an unused tablet costs
+next to nothing.
 """
 
 from __future__ import annotations
 
+import gc
 import logging
 import math
 import sys
@@ -23,7 +32,7 @@ from typing import Any
 import zmq
 
 from stiction import __version__, protocol
-from stiction.daemon.clock import Clock, RealClock, Schedule, VirtualClock
+from stiction.daemon.clock import Clock, RealClock, Schedule, VirtualClock, tighten_timer_slack
 from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
     ClockMap,
@@ -40,6 +49,7 @@ from stiction.daemon.mapping import MappingConfig, make_mapping
 from stiction.daemon.publisher import Publisher
 from stiction.daemon.security import CurveConfig, Guard
 from stiction.daemon.stats import Window
+from stiction.daemon.wake import Waker
 from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
@@ -78,6 +88,14 @@ class Options:
     scene_from_flag: bool = False
     stats_window: int = 10_000
     """Ticks kept for the jitter/latency percentiles of the stats reply."""
+    keepalive: float = 1.0
+    """Seconds between the frames of a device with nothing new to say;
+    0 publishes every device every tick and never idles."""
+    spin_ms: float = 0.3
+    """Sleep to this long before each deadline, then poll the clock (RealClock)."""
+    start: float | None = None
+    """Monotonic time of deadline 0 (real clock); default 10 ms after run()
+    starts. Processes that share CLOCK_MONOTONIC can share a grid."""
 
 
 class Daemon:
@@ -96,7 +114,15 @@ class Daemon:
         self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
         scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
         self.pipeline = Pipeline(scene, self.backend, self.defaults)
-        self.clock: Clock = VirtualClock() if self.virtual else RealClock()
+        if not (math.isfinite(opts.keepalive) and opts.keepalive >= 0):
+            raise StictionError(f"keepalive must be 0 or more seconds, got {opts.keepalive}")
+        try:
+            self.clock: Clock = VirtualClock() if self.virtual else RealClock(opts.spin_ms / 1e3)
+        except ValueError:
+            raise StictionError(
+                f"spin_ms must be from 0 to 5 (milliseconds), got {opts.spin_ms:g}"
+            ) from None
+        self.waker = Waker()
         self._own_ctx = ctx is None
         self.ctx: zmq.Context[Any] = ctx if ctx is not None else zmq.Context()
         self.guard = Guard(self.ctx, opts.curve)
@@ -131,7 +157,9 @@ class Daemon:
 
     def _open(self) -> None:
         self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
-        self.control = ControlServer(self.ctx, self.opts.control, self.guard, self)
+        self.control = ControlServer(
+            self.ctx, self.opts.control, self.guard, self, on_request=self.waker.wake
+        )
         configs = self.opts.devices or _auto_devices()
         names: set[str] = set()
         for cfg in configs:
@@ -165,6 +193,7 @@ class Daemon:
                 lambda: self.slots,
                 lambda s: opener(s.spec, s.config, True, True),
                 discover=None if self.opts.devices else _discover_specs,
+                on_ready=self.waker.wake,
             )
             self.hotplug.start()
         log.info(
@@ -197,10 +226,12 @@ class Daemon:
         slot.clock = ClockMap()  # a reopened device's clock is learnt afresh
         slot.state = "open"
         slot.went_away = False
+        slot.quiet = False
+        self.last_frames.pop(slot.name, None)  # announce the (re)opened device at once
         if self.virtual:
             slot.iterator = iter(source.samples())
         else:
-            start_reader(slot, lambda s: None)
+            start_reader(slot, lambda s: None, self.waker)
 
     @staticmethod
     def _mapping_config(slot: DeviceSlot) -> MappingConfig:
@@ -276,9 +307,11 @@ class Daemon:
     # ------------------------------------------------------------ control flags
     def request_stop(self) -> None:
         self._stop.set()
+        self.waker.wake()
 
     def request_reload(self) -> None:
         self._reload.set()
+        self.waker.wake()
 
     # ------------------------------------------------------------ the loop
     def run(self) -> int:
@@ -288,25 +321,36 @@ class Daemon:
         # interpreter. A short interval bounds that wait.
         switch = sys.getswitchinterval()
         sys.setswitchinterval(min(switch, SWITCH_INTERVAL_S))
+        if not self.virtual:
+            tighten_timer_slack()
+        # Everything built so far (modules, scene, compiled kernels) lives as
+        # long as the daemon: out of the collector's way, so that a full
+        # collection during a tick walks only what the ticks allocate.
+        gc.collect()
+        gc.freeze()
         try:
             return self._run()
         finally:
             sys.setswitchinterval(switch)
+            gc.unfreeze()
 
     def _run(self) -> int:
         assert self.publisher is not None
         self._publish_scene()
         if not self.virtual:
-            self.schedule = Schedule(
-                self.opts.rate, self.clock.now() + 0.01, _ms(self.opts.late_threshold_ms)
-            )
+            start = self.opts.start if self.opts.start is not None else self.clock.now() + 0.01
+            self.schedule = Schedule(self.opts.rate, start, _ms(self.opts.late_threshold_ms))
         limit = None if self.opts.seconds is None else round(self.opts.seconds * self.opts.rate)
         prev_t = -math.inf
         while not self._stop.is_set():
-            if limit is not None and self.schedule.ticks >= limit:
+            if limit is not None and self.schedule.index >= limit:
                 break
+            if self.control is not None:
+                self.control.serve_pending()
+            if self._may_idle() and self._idle(limit):
+                continue
             deadline = self.schedule.deadline
-            self._wait(deadline)
+            self.clock.sleep_until(deadline)
             woke = self.clock.now()
             lateness = self.schedule.begin(woke)
             if not self.virtual:
@@ -333,16 +377,53 @@ class Daemon:
         )
         return 0
 
-    def _wait(self, deadline: float) -> None:
-        """Answer waiting control requests, then sleep to the deadline."""
-        if self.control is not None:
-            self.control.serve_pending()
-        self.clock.sleep_until(deadline)
+    def _may_idle(self) -> bool:
+        """Nothing to simulate and nothing new to publish until a producer wakes us."""
+        if self.virtual or self.opts.keepalive == 0:
+            return False
+        for slot in self.slots:
+            if slot.run is None:
+                continue
+            if not slot.quiet or slot.run.tracks or slot.queue or slot.pending or slot.went_away:
+                return False
+        return True
+
+    def _idle(self, limit: int | None) -> bool:
+        """Sleep until there is work or a keep-alive frame is due, then rejoin the
+        grid. False if there was no reason to sleep: the next deadline ticks."""
+        waker = self.waker
+        waited = False
+        waker.arm()
+        try:
+            busy = (
+                self._stop.is_set()
+                or self._reload.is_set()
+                or not self._may_idle()
+                or (self.control is not None and self.control.has_pending())
+                or (self.hotplug is not None and not self.hotplug.ready.empty())
+            )
+            if not busy:
+                due = min(
+                    (s.sent_t + self.opts.keepalive for s in self.slots if s.run is not None),
+                    default=math.inf,
+                )
+                if limit is not None:
+                    due = min(due, self.schedule.start + limit / self.schedule.rate)
+                # Wake a tick before the keep-alive is due, to publish it on time.
+                timeout = due - self.clock.now() - 1.0 / self.schedule.rate
+                if timeout > 0:
+                    waker.wait(timeout)
+                    waited = True
+        finally:
+            waker.disarm()
+        self.schedule.resume(self.clock.now())
+        return waited
 
     def _tick(self, t: float, prev_t: float) -> None:
         pub = self.publisher
         assert pub is not None
-        tick = self.schedule.ticks
+        tick = self.schedule.index
+        keepalive = self.opts.keepalive
         for slot in self.slots:
             run = slot.run
             if run is None:
@@ -377,10 +458,23 @@ class Daemon:
                 ids = {c["id"] for c in ended}
                 contacts = [c for c in contacts if c["id"] not in ids] + ended
                 contacts.sort(key=lambda c: c["id"])
+            last = self.last_frames.get(slot.name)
+            # Nothing new (no input, the same contacts): hold the frame back
+            # unless a keep-alive is due.
+            slot.quiet = (
+                keepalive > 0
+                and not samples
+                and not finished
+                and last is not None
+                and last["contacts"] == contacts
+            )
+            if slot.quiet and t - slot.sent_t < keepalive:
+                continue
             frame: dict[str, Any] = {
                 "v": protocol.SCHEMA_VERSION,
                 "kind": protocol.KIND_FRAME,
                 "tick": tick,
+                "prev_tick": slot.sent_tick,
                 "t": t,
                 "t_input": slot.last_t if math.isfinite(slot.last_t) else None,
                 "device": slot.name,
@@ -388,6 +482,8 @@ class Daemon:
             }
             pub.send(protocol.frame_topic(slot.name), frame)
             self.last_frames[slot.name] = frame
+            slot.sent_tick = tick
+            slot.sent_t = t
             if newest is not None:
                 self.latency.add(time.monotonic() - newest)
             if finished:
@@ -502,6 +598,8 @@ class Daemon:
             "ticks": self.schedule.ticks,
             "late_ticks": self.schedule.late,
             "skipped_deadlines": self.schedule.skipped,
+            "idle_deadlines": self.schedule.slept,
+            "idle_wakes": self.waker.wakes,
             "late_threshold_ms": self.schedule.late_threshold * 1e3,
             "jitter_ms": self.jitter.summary(1e3),
             "latency_ms": self.latency.summary(1e3),
