@@ -292,3 +292,29 @@ def test_a_slow_page_gets_the_latest_frame_not_a_queue() -> None:
     assert bridge.stats.skipped_for_slow_pages == 59
     assert sent[0]["latency_ms"] is None  # t=100.59 is not this clock: no fake latency
     assert bridge.take(page) == []
+
+
+def test_the_bridge_waits_out_the_daemons_keepalive_before_calling_it_gone(
+    endpoints: tuple[str, str],
+) -> None:
+    """A quiet daemon sends a frame per keep-alive; silence shorter than 2.5 of
+    them is not an outage. The keep-alive comes from the snapshot reply."""
+    from stiction.clients.web.bridge import SILENT_AFTER
+
+    daemon = FakeDaemon(*endpoints)
+    daemon.snapshot["keepalive"] = 4.0
+    try:
+        bridge = Bridge(*endpoints)
+        assert bridge.silent_after == SILENT_AFTER >= 2.5  # the default keep-alive is 1 s
+        # Its own thread: a browser test may have left this thread's loop running.
+        t = threading.Thread(target=lambda: asyncio.run(bridge._fetch_snapshot()))
+        t.start()
+        t.join(30)
+        assert bridge.silent_after == 10.0
+        bridge._check_silence(100.0)  # the silence starts
+        bridge._check_silence(109.9)
+        assert bridge.stats.state != "gone"
+        bridge._check_silence(110.0)
+        assert bridge.stats.state == "gone"
+    finally:
+        daemon.close()

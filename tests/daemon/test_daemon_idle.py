@@ -193,5 +193,8 @@ def test_keepalive_zero_publishes_every_tick_and_never_idles(endpoints: tuple[st
         frames = _frames(sub, 20)
         assert not entered.is_set()
     sub.close()
-    assert [f["tick"] for f in frames] == list(range(frames[0]["tick"], frames[0]["tick"] + 20))
-    assert all(f["prev_tick"] == f["tick"] - 1 for f in frames[1:])
+    # Every deadline the loop ran has its frame; a gap in the ticks is only
+    # ever a deadline the machine made it skip (counted), never an idle one.
+    assert all(b["prev_tick"] == a["tick"] for a, b in itertools.pairwise(frames))
+    gaps = sum(b["tick"] - a["tick"] - 1 for a, b in itertools.pairwise(frames))
+    assert gaps <= d.schedule.skipped and d.schedule.slept == 0

@@ -177,7 +177,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--count", type=_positive_int, help="stop after N frames")
     p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
     p.add_argument(
-        "--idle", type=_positive_float, help="stop after S seconds without frames (once started)"
+        "--idle",
+        type=_positive_float,
+        help="stop after S seconds without frames (once started; a quiet daemon still sends "
+        "a keep-alive frame a second, so S > 1 means the daemon stopped)",
     )
     p.add_argument("--device", action="append", help="only this device (repeatable)")
     _add_curve(p)

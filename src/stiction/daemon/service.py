@@ -636,13 +636,19 @@ class Daemon:
         }
 
     def ping(self) -> dict[str, Any]:
-        return {"tick": self.last_tick, "version": __version__, "rate": self.opts.rate}
+        return {
+            "tick": self.last_tick,
+            "version": __version__,
+            "rate": self.opts.rate,
+            "keepalive": self.opts.keepalive,
+        }
 
     def snapshot(self) -> dict[str, Any]:
         return {
             "tick": self.last_tick,
             "scene": self.pipeline.wire(),
             "frames": dict(self.last_frames),
+            "keepalive": self.opts.keepalive,
         }
 
 

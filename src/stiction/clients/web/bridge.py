@@ -14,6 +14,7 @@ from __future__ import annotations
 import asyncio
 import json
 import logging
+import math
 import time
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -27,9 +28,11 @@ from stiction.errors import ProtocolError
 
 log = logging.getLogger("stiction.clients.web")
 
-SILENT_AFTER = 1.0
-"""Seconds without a frame before pages are told the daemon is gone: at
-100 Hz a live daemon sends a frame per device every 10 ms, even without contact."""
+SILENT_AFTER = 2.5
+"""Seconds without a frame before pages are told the daemon is gone. A live
+daemon sends each device's frame at least once per keep-alive (1 s by
+default) even with nothing in range; the snapshot reply says what the
+daemon's keep-alive is, and the bridge waits 2.5 of them when it is longer."""
 
 SAME_CLOCK_WITHIN = 10.0
 """A frame time within this many seconds of the bridge's monotonic clock is
@@ -75,6 +78,7 @@ class Bridge:
         self.pages: set[Page] = set()
         self._last_frame_at: float | None = None
         self._started_at: float | None = None
+        self.silent_after = SILENT_AFTER
         self._tasks: set[asyncio.Future[None]] = set()
         self._sub: AsyncSubscriber | None = None
         self._own_errors = 0
@@ -131,6 +135,9 @@ class Bridge:
         except (control_mod.ControlUnavailable, ProtocolError) as exc:
             log.info("no snapshot from %s: %s", self.control, exc)
             return
+        keepalive = reply.get("keepalive")
+        if isinstance(keepalive, (int, float)) and math.isfinite(keepalive) and keepalive > 0:
+            self.silent_after = max(SILENT_AFTER, 2.5 * float(keepalive))
         scene = reply.get("scene")
         tick = reply.get("tick", -1)
         if isinstance(scene, dict) and isinstance(tick, int):
@@ -210,7 +217,7 @@ class Bridge:
             since = self._started_at
             if since is None:
                 self._started_at = since = now
-        if now - since >= SILENT_AFTER:
+        if now - since >= self.silent_after:
             what = "stopped sending frames" if self._last_frame_at else "sends no frames"
             self._set_status("gone", f"the daemon at {self.pub} {what}: is stictiond running?")
 
