@@ -2,7 +2,12 @@
 
 Run as ``stiction bench daemon [--json] [--seconds S] [--sequential]``. Three
 loops run at the same time, each in its own process, so that whatever else
-the (shared) machine is doing hits all three alike:
+the (shared) machine is doing -- including the hypervisor taking the CPUs
+away, which the run measures as steal time -- hits all three alike. They
+keep the same 100 Hz grid of absolute deadlines, each shifted by a third of
+a period (bare loop +3.3 ms, raw pyzmq +6.7 ms) so that none of them measures
+the others' wake-ups: on 2 CPUs, three loops and 20 subscribers woken at one
+instant would mostly measure each other.
 
 1. bare loop: a Python loop sleeping to absolute 100 Hz deadlines, doing
    nothing else (the floor for tick jitter);
@@ -16,8 +21,15 @@ the (shared) machine is doing hits all three alike:
    processes.
 
 Then the idle daemon (a device that sends nothing), with 10 subscribers and
-with none, for CPU use. ``--sequential`` runs the two baselines one after the
-other before the daemon instead (``--baseline-seconds`` long).
+with none, for CPU use; and, as the naive alternative in the same run, the
+same idle daemon publishing every device every tick (``keepalive = 0``, what
+it did before it learnt to idle). ``--sequential`` runs the two baselines one
+after the other before the daemon instead (``--baseline-seconds`` long).
+
+Every late daemon tick is checked against the bare loop beside it: if the
+bare loop was held up too (over 1 ms late at the same or the neighbouring
+deadline), the machine stalled both, and the tick is counted as a machine
+stall rather than the daemon's own.
 
 Prints tick jitter (start - deadline) p50/p99/max, late ticks (> half a
 period), deadline-to-subscriber latency p50/p99/max (subscriber receipt
@@ -126,7 +138,7 @@ def _latency(samples: list[tuple[float, float]], start: float) -> dict[str, floa
 
 
 def bare_loop(
-    seconds: float, rate: float, sock: Any = None
+    seconds: float, rate: float, sock: Any = None, start: float | None = None
 ) -> tuple[np.ndarray, int, float, float]:
     """Sleep to absolute deadlines; optionally publish one message per tick."""
     import msgpack
@@ -135,7 +147,7 @@ def bare_loop(
     jitter = np.empty(n_ticks)
     late = 0
     threshold = 0.5 / rate
-    start = time.monotonic() + 0.05
+    start = time.monotonic() + 0.05 if start is None else start
     cpu0 = time.process_time()
     for n in range(n_ticks):
         deadline = start + n / rate
@@ -171,8 +183,8 @@ def _bare_child(argv: list[str]) -> None:
         sock.sndhwm = 1000
         sock.bind(endpoint)
     print("ready", flush=True)
-    sys.stdin.readline()  # go
-    jitter, late, cpu, start = bare_loop(seconds, rate, sock)
+    start = float(sys.stdin.readline())  # go: deadline 0 of the shared grid
+    jitter, late, cpu, start = bare_loop(seconds, rate, sock, start)
     np.save(out + ".npy", jitter)
     Path(out + ".json").write_text(json.dumps({"late": late, "cpu_pct": cpu, "start": start}))
     if sock is not None and ctx is not None:
@@ -196,9 +208,9 @@ class BareProcess:
         if self.proc.stdout.readline().strip() != "ready":
             raise RuntimeError("bare loop process failed to start")
 
-    def go(self) -> None:
+    def go(self, start: float) -> None:
         assert self.proc.stdin is not None
-        self.proc.stdin.write("go\n")
+        self.proc.stdin.write(f"{start!r}\n")
         self.proc.stdin.flush()
 
     def result(self) -> tuple[np.ndarray, int, float, float]:
@@ -229,8 +241,17 @@ class _Idle:
 
 
 def run_daemon(
-    seconds: float, rate: float, pub: str, ctl: str, spec: str | None
-) -> tuple[dict[str, Any], float, float, np.ndarray]:
+    seconds: float,
+    rate: float,
+    pub: str,
+    ctl: str,
+    spec: str | None,
+    start: float | None = None,
+    keepalive: float = 1.0,
+    spin_ms: float | None = None,
+) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
+    """Run stictiond in this process; returns its stats, CPU %, grid start,
+    and the lateness of every tick it ran with that tick's grid index."""
     from stiction.daemon.devices import DeviceConfig
     from stiction.daemon.service import Daemon, Options
 
@@ -242,9 +263,15 @@ def run_daemon(
         hotplug=False,
         devices=[DeviceConfig(spec or "idle")],
         stats_window=round(seconds * rate) + 100,
+        start=start,
+        keepalive=keepalive,
     )
+    if spin_ms is not None:
+        opts.spin_ms = spin_ms
     daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
     daemon.open()
+    ticks: list[int] = []
+    daemon.on_tick = ticks.append
     cpu0 = time.process_time()
     wall0 = time.monotonic()
     try:
@@ -255,7 +282,46 @@ def run_daemon(
         start = daemon.schedule.start
     finally:
         daemon.close()
-    return stats, cpu, start, jitter
+    return stats, cpu, start, jitter, np.asarray(ticks, dtype=np.int64)
+
+
+def _default_spin_ms() -> float:
+    from stiction.daemon.service import Options
+
+    return Options().spin_ms
+
+
+def _steal() -> tuple[int, int]:
+    """(steal, total) jiffies over all CPUs from /proc/stat (0, 1 where absent)."""
+    try:
+        fields = Path("/proc/stat").read_text().split("\n", 1)[0].split()[1:]
+    except OSError:
+        return 0, 1
+    values = [int(v) for v in fields]
+    steal = values[7] if len(values) > 7 else 0
+    return steal, sum(values[:8])
+
+
+def _steal_pct(before: tuple[int, int], after: tuple[int, int]) -> float:
+    total = after[1] - before[1]
+    return 100.0 * (after[0] - before[0]) / total if total > 0 else 0.0
+
+
+def _stalls(
+    daemon_late: np.ndarray, bare_jitter: np.ndarray, threshold: float = 1e-3
+) -> tuple[int, list[int]]:
+    """How many of the daemon's late ticks (grid indices) found the bare loop
+    beside it held up too (> `threshold` late at that or a neighbouring deadline)."""
+    shared = 0
+    own: list[int] = []
+    n = len(bare_jitter)
+    for k in daemon_late:
+        near = bare_jitter[max(0, k - 1) : min(n, k + 2)]
+        if len(near) and float(near.max()) > threshold:
+            shared += 1
+        else:
+            own.append(int(k))
+    return shared, own
 
 
 def main(argv: list[str]) -> int:
@@ -275,6 +341,11 @@ def main(argv: list[str]) -> int:
         action="store_true",
         help="run the baselines one after the other before the daemon (default: side by side)",
     )
+    ap.add_argument(
+        "--spin-ms",
+        type=float,
+        help="the daemon's spin_ms (default: the daemon's own, 0.3); 0 to see a plain sleep",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     import zmq
@@ -290,6 +361,7 @@ def main(argv: list[str]) -> int:
         "subscribers": args.subscribers,
         "device": args.device,
         "cpus": os.cpu_count(),
+        "spin_ms": args.spin_ms if args.spin_ms is not None else _default_spin_ms(),
         "python": sys.version.split()[0],
         "pyzmq": zmq.__version__,
         "libzmq": zmq.zmq_version(),
@@ -312,7 +384,11 @@ def main(argv: list[str]) -> int:
         ctx.term()
         print(f"stictiond with {args.device}, {args.seconds:g} s ...", file=sys.stderr)
         subs = Subscribers(pub, args.subscribers, tmp)
-        stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
+        steal0 = _steal()
+        stats, cpu, start, jit, idx = run_daemon(
+            args.seconds, args.rate, pub, ctl, args.device, spin_ms=args.spin_ms
+        )
+        steal1 = _steal()
         got = subs.finish()
     else:
         # All three side by side, so the shared machine's load hits each alike.
@@ -325,13 +401,22 @@ def main(argv: list[str]) -> int:
         raw_proc = BareProcess(args.seconds, args.rate, f"{tmp}/raw", raw_endpoint)
         raw_subs = Subscribers(raw_endpoint, args.subscribers, tmp)
         subs = Subscribers(pub, args.subscribers, tmp)
-        bare_proc.go()
-        raw_proc.go()
-        stats, cpu, start, jit = run_daemon(args.seconds, args.rate, pub, ctl, args.device)
+        grid = time.monotonic() + 0.5
+        period = 1.0 / args.rate
+        bare_proc.go(grid + period / 3)
+        raw_proc.go(grid + 2 * period / 3)
+        steal0 = _steal()
+        stats, cpu, start, jit, idx = run_daemon(
+            args.seconds, args.rate, pub, ctl, args.device, start=grid, spin_ms=args.spin_ms
+        )
+        steal1 = _steal()
         bare, raw = bare_proc.result(), raw_proc.result()
         got = subs.finish()
         raw_got = raw_subs.finish()
     res["mode"] = "sequential" if args.sequential else "concurrent"
+    res["steal_pct"] = _steal_pct(steal0, steal1)
+    late_idx = idx[jit > 0.5 / args.rate] if len(idx) == len(jit) else np.array([], np.int64)
+    shared, own = _stalls(late_idx, bare[0]) if not args.sequential else (0, [])
     res["bare"] = {"jitter_ms": _summary(bare[0] * 1e3), "late": bare[1], "cpu_pct": bare[2]}
     res["raw"] = {
         "jitter_ms": _summary(raw[0] * 1e3),
@@ -342,7 +427,10 @@ def main(argv: list[str]) -> int:
     res["daemon"] = {
         "jitter_ms": _summary(jit * 1e3),
         "late": stats["late_ticks"],
+        "late_with_bare_held_up": shared,
+        "late_own": own,
         "skipped": stats["skipped_deadlines"],
+        "idle_deadlines": stats["idle_deadlines"],
         "ticks": stats["ticks"],
         "cpu_pct": cpu,
         "latency_ms": _latency(got, start + 0.5),
@@ -354,12 +442,23 @@ def main(argv: list[str]) -> int:
     print(f"stictiond idle, {idle_s:g} s ...", file=sys.stderr)
     pub, ctl = f"ipc://{tmp}/pub2", f"ipc://{tmp}/ctl2"
     subs = Subscribers(pub, args.subscribers, tmp)
-    stats, cpu, _, jit = run_daemon(idle_s, args.rate, pub, ctl, None)
-    subs.finish()
-    res["idle"] = {"cpu_pct": cpu, "late": stats["late_ticks"], "jitter_ms": _summary(jit * 1e3)}
+    stats, cpu, _, _, _ = run_daemon(idle_s, args.rate, pub, ctl, None)
+    idle_frames = len(subs.finish()) / args.subscribers
+    res["idle"] = {
+        "cpu_pct": cpu,
+        "ticks": stats["ticks"],
+        "idle_deadlines": stats["idle_deadlines"],
+        "frames_per_subscriber": idle_frames,
+    }
     print(f"stictiond idle without subscribers, {idle_s:g} s ...", file=sys.stderr)
-    _, cpu, _, _ = run_daemon(idle_s, args.rate, f"ipc://{tmp}/pub3", f"ipc://{tmp}/ctl3", None)
+    _, cpu, *_ = run_daemon(idle_s, args.rate, f"ipc://{tmp}/pub3", f"ipc://{tmp}/ctl3", None)
     res["idle"]["cpu_pct_no_subscribers"] = cpu
+    print(f"stictiond idle, a frame every tick (keepalive 0), {idle_s:g} s ...", file=sys.stderr)
+    pub, ctl = f"ipc://{tmp}/pub4", f"ipc://{tmp}/ctl4"
+    subs = Subscribers(pub, args.subscribers, tmp)
+    _, cpu, *_ = run_daemon(idle_s, args.rate, pub, ctl, None, keepalive=0.0)
+    res["idle"]["every_tick_cpu_pct"] = cpu
+    res["idle"]["every_tick_frames_per_subscriber"] = len(subs.finish()) / args.subscribers
 
     b, r, d = res["bare"], res["raw"], res["daemon"]
     res["targets"] = {
@@ -372,6 +471,8 @@ def main(argv: list[str]) -> int:
     }
     table = _table(res)
     stem = "daemon" if args.seconds == DEFAULT_SECONDS else f"daemon-{args.seconds:g}s"
+    if args.spin_ms is not None:
+        stem += f"-spin{args.spin_ms:g}"
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{stem}.txt").write_text(table + "\n")
     (RESULTS / f"{stem}.json").write_text(json.dumps(res, indent=2))
@@ -386,11 +487,17 @@ def _f(v: float | None, spec: str = ".3f") -> str:
 
 def _table(res: dict[str, Any]) -> str:
     b, r, d, i, t = res["bare"], res["raw"], res["daemon"], res["idle"], res["targets"]
+    concurrent = res["mode"] == "concurrent"
+    how = (
+        "same time, own processes, grid shifted by 1/3 period each"
+        if concurrent
+        else "before the daemon"
+    )
     lines = [
         f"stictiond timing at {res['rate']:g} Hz, {res['subscribers']} subscriber processes, "
-        f"{res['seconds']:g} s, baselines {res['mode']} "
-        f"({'same time, own processes' if res['mode'] == 'concurrent' else 'before the daemon'}), "
-        f"{res['cpus']} CPUs (shared machine)",
+        f"{res['seconds']:g} s, baselines {res['mode']} ({how}), "
+        f"{res['cpus']} CPUs (shared machine); CPU time stolen by the hypervisor during the "
+        f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}",
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
     ]
 
@@ -405,23 +512,38 @@ def _table(res: dict[str, Any]) -> str:
     lines.append(
         f"{'late ticks (> half a period)':<34}{b['late']:>12}{r['late']:>12}{d['late']:>12}"
     )
+    if concurrent:
+        lines.append(
+            f"{'  ... with the bare loop held up':<34}{'':>24}{d['late_with_bare_held_up']:>12}"
+        )
     for sub in ("p50", "p99", "max"):
         row(f"deadline->subscriber {sub} (ms)", "latency_ms", sub)
     lines.append(
         f"{'CPU, % of one core':<34}{b['cpu_pct']:>12.2f}{r['cpu_pct']:>12.2f}{d['cpu_pct']:>12.2f}"
-    )
-    lines.append(f"{'stictiond idle CPU, % of one core':<34}{'':>24}{i['cpu_pct']:>12.2f}")
-    lines.append(
-        f"{'stictiond idle, no subscribers, %':<34}{'':>24}{i['cpu_pct_no_subscribers']:>12.2f}"
     )
     ip = d["input_to_publish_ms"]
     lines.append(
         f"{'input->publish p50/p99 (ms)':<34}{'':>24}"
         f"{_f(ip['p50'], '.2f') + '/' + _f(ip['p99'], '.2f'):>12}"
     )
+    lines.append(f"idle daemon ({res['idle_seconds']:g} s, a device that sends nothing):")
+    lines.append(
+        f"  {'CPU, 10 subscribers, % of a core':<44}{i['cpu_pct']:>8.2f}"
+        f"   ({i['ticks']} ticks, {i['frames_per_subscriber']:.0f} frames per subscriber)"
+    )
+    lines.append(f"  {'CPU, no subscribers, %':<44}{i['cpu_pct_no_subscribers']:>8.2f}")
+    lines.append(
+        f"  {'naive: a frame every tick (keepalive 0), %':<44}{i['every_tick_cpu_pct']:>8.2f}"
+        f"   ({i['every_tick_frames_per_subscriber']:.0f} frames per subscriber)"
+    )
+    lines.append(
+        f"  {'naive / stictiond':<44}{i['every_tick_cpu_pct'] / max(i['cpu_pct'], 1e-9):>7.1f}x"
+    )
+    own = len(d["late_own"]) if concurrent else None
     lines.append("targets:")
-    lines.append(f"  late ticks = 0 ............................ {d['late']} -> "
-                 f"{'met' if t['no_late_tick'] else 'NOT met'}")  # fmt: skip
+    lines.append(f"  late ticks = 0 ............................ {d['late']}"
+                 + (f" ({own} with the bare loop on time)" if own is not None else "")
+                 + f" -> {'met' if t['no_late_tick'] else 'NOT met'}")  # fmt: skip
     lines.append(f"  jitter p99 <= 1.2 x bare loop's ........... "
                  f"{t['jitter_p99_ratio_vs_bare']:.2f}x -> "
                  f"{'met' if t['jitter_p99_within_1.2x'] else 'NOT met'}")  # fmt: skip
@@ -439,7 +561,7 @@ def _plot(res: dict[str, Any], path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(7, 4))
+    fig, (ax, ax2) = plt.subplots(1, 2, figsize=(11, 4), gridspec_kw={"width_ratios": [3, 2]})
     names = ["bare loop", "bare+pyzmq", "stictiond"]
     keys = ["bare", "raw", "daemon"]
     x = np.arange(3)
@@ -449,7 +571,20 @@ def _plot(res: dict[str, Any], path: Path) -> None:
     ax.set_yscale("log")
     ax.set_ylabel("tick start - deadline (ms)")
     ax.set_title(f"tick jitter at {res['rate']:g} Hz ({res['seconds']:g} s, shared machine)")
-    ax.legend()
+    top = max(res[k]["jitter_ms"]["max"] for k in keys)
+    ax.set_ylim(top=top * 20)  # room for the legend above the bars
+    ax.legend(loc="upper center", ncol=3, fontsize=8)
+    idle = res["idle"]
+    bars = {
+        "stictiond\n10 subscribers": idle["cpu_pct"],
+        "stictiond\nno subscribers": idle["cpu_pct_no_subscribers"],
+        "a frame every tick\n10 subscribers": idle.get("every_tick_cpu_pct", float("nan")),
+    }
+    ax2.bar(list(bars), list(bars.values()), color=["C2", "C2", "C7"])
+    ax2.axhline(2.0, color="C3", linestyle="--", label="target: 2% of a core")
+    ax2.set_ylabel("CPU, % of one core")
+    ax2.set_title(f"idle daemon ({res['idle_seconds']:g} s, device silent)")
+    ax2.legend()
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
