@@ -59,6 +59,21 @@ SCENE: dict[str, Any] = {
 }
 
 
+def run_in_thread(fn: Any, *args: Any, **kwargs: Any) -> tuple[threading.Thread, dict[str, Any]]:
+    """Start fn on a daemon thread; the box gets its "result" or its "error"."""
+    box: dict[str, Any] = {}
+
+    def target() -> None:
+        try:
+            box["result"] = fn(*args, **kwargs)
+        except BaseException as exc:
+            box["error"] = exc
+
+    t = threading.Thread(target=target, daemon=True)
+    t.start()
+    return t, box
+
+
 def scene_message(tick: int = -1) -> dict[str, Any]:
     return {"v": protocol.SCHEMA_VERSION, "kind": "scene", "tick": tick, "scene": SCENE}
 

@@ -20,7 +20,15 @@ from typing import Any
 
 import numpy as np
 import pytest
-from clients_support import SCENE, FakeDaemon, make_contact, make_frame, scene_message, stroke
+from clients_support import (
+    SCENE,
+    FakeDaemon,
+    make_contact,
+    make_frame,
+    run_in_thread,
+    scene_message,
+    stroke,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -37,20 +45,6 @@ pytest_plugins = ["clients_fixtures"]
 STICTION = str(Path(sys.executable).with_name("stiction"))
 STATS = {"received": 7, "bad": 0}
 START_META = {"endpoint": "ipc://x", "control": None, "control_error": "none given"}
-
-
-def run_in_thread(fn: Any, *args: Any, **kwargs: Any) -> tuple[threading.Thread, dict[str, Any]]:
-    box: dict[str, Any] = {}
-
-    def target() -> None:
-        try:
-            box["result"] = fn(*args, **kwargs)
-        except BaseException as exc:
-            box["error"] = exc
-
-    t = threading.Thread(target=target, daemon=True)
-    t.start()
-    return t, box
 
 
 def as_message(wire: dict[str, Any], recv_t: float) -> tuple[bytes, bytes, float, Message]:

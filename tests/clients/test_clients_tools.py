@@ -12,7 +12,7 @@ from typing import Any
 
 import numpy as np
 import pytest
-from clients_support import SCENE, FakeDaemon, make_frame, scene_message, stroke
+from clients_support import SCENE, FakeDaemon, make_frame, run_in_thread, scene_message, stroke
 
 from stiction import cli, protocol
 from stiction.clients import Frame, SceneMessage, Subscriber, control
@@ -22,20 +22,6 @@ from stiction.clients.replay import Replayer
 from stiction.errors import ProtocolError, RecordingError
 
 pytest_plugins = ["clients_fixtures"]
-
-
-def run_in_thread(fn: Any, *args: Any, **kwargs: Any) -> tuple[threading.Thread, dict[str, Any]]:
-    box: dict[str, Any] = {}
-
-    def target() -> None:
-        try:
-            box["result"] = fn(*args, **kwargs)
-        except BaseException as exc:
-            box["error"] = exc
-
-    t = threading.Thread(target=target, daemon=True)
-    t.start()
-    return t, box
 
 
 def test_listen_json_prints_the_wire_frames(
