@@ -71,11 +71,17 @@ EXTENSIONS (beyond the contract above, all optional):
   where friction dominates the pen's momentum.
 """
 
-from stiction.sim.batch import BatchSim
-from stiction.sim.contact import ContactSim
-from stiction.sim.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
-from stiction.sim.params import Params
-from stiction.sim.state import ContactState, Phase, Touch
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from stiction.sim.batch import BatchSim
+    from stiction.sim.contact import ContactSim
+    from stiction.sim.integrators import DEFAULT_INTEGRATOR, INTEGRATORS
+    from stiction.sim.params import Params
+    from stiction.sim.state import ContactState, Phase, Touch
 
 __all__ = [
     "DEFAULT_INTEGRATOR",
@@ -87,3 +93,36 @@ __all__ = [
     "Phase",
     "Touch",
 ]
+
+# The names above are imported on first use (PEP 562), not with the package:
+# BatchSim needs numpy, and `stiction --help` imports stiction.sim.cli and so
+# this package. Type checkers read the TYPE_CHECKING imports instead.
+_SOURCES = {
+    "BatchSim": "stiction.sim.batch",
+    "ContactSim": "stiction.sim.contact",
+    "DEFAULT_INTEGRATOR": "stiction.sim.integrators",
+    "INTEGRATORS": "stiction.sim.integrators",
+    "Params": "stiction.sim.params",
+    "ContactState": "stiction.sim.state",
+    "Phase": "stiction.sim.state",
+    "Touch": "stiction.sim.state",
+}
+
+
+def _lazy(name: str) -> object:
+    source = _SOURCES.get(name)
+    if source is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(source), name)
+    globals()[name] = value  # later look-ups no longer come here
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
+
+
+if not TYPE_CHECKING:
+    # Hidden from type checkers: a visible module __getattr__ would make them
+    # accept any misspelt name imported from this package.
+    __getattr__ = _lazy
