@@ -12,17 +12,17 @@ column view (``Subscriber.collect``, ``ContactTable``) is used.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Any
-
-from stiction.clients.aio import AsyncSubscriber
-from stiction.clients.control import ControlUnavailable
-from stiction.clients.curve import CurveKeys
-from stiction.clients.messages import Contact, Frame, Message, SceneMessage, StringState
-from stiction.clients.stream import SubscriberStats
-from stiction.clients.subscriber import Subscriber
+import importlib
+from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from stiction.clients.aio import AsyncSubscriber
     from stiction.clients.columns import ContactTable
+    from stiction.clients.control import ControlUnavailable
+    from stiction.clients.curve import CurveKeys
+    from stiction.clients.messages import Contact, Frame, Message, SceneMessage, StringState
+    from stiction.clients.stream import SubscriberStats
+    from stiction.clients.subscriber import Subscriber
 
 __all__ = [
     "AsyncSubscriber",
@@ -38,11 +38,39 @@ __all__ = [
     "SubscriberStats",
 ]
 
+# The names above are imported on first use (PEP 562), not with the package:
+# they need pyzmq and msgpack, AsyncSubscriber asyncio, ContactTable numpy, and
+# `stiction --help` imports stiction.clients.cli and so this package. Type
+# checkers read the TYPE_CHECKING imports instead.
+_SOURCES = {
+    "AsyncSubscriber": "stiction.clients.aio",
+    "ContactTable": "stiction.clients.columns",
+    "ControlUnavailable": "stiction.clients.control",
+    "CurveKeys": "stiction.clients.curve",
+    "Contact": "stiction.clients.messages",
+    "Frame": "stiction.clients.messages",
+    "Message": "stiction.clients.messages",
+    "SceneMessage": "stiction.clients.messages",
+    "StringState": "stiction.clients.messages",
+    "SubscriberStats": "stiction.clients.stream",
+    "Subscriber": "stiction.clients.subscriber",
+}
 
-def __getattr__(name: str) -> Any:
-    # ContactTable needs numpy; import it only when someone asks for it.
-    if name == "ContactTable":
-        from stiction.clients.columns import ContactTable
 
-        return ContactTable
-    raise AttributeError(f"module 'stiction.clients' has no attribute {name!r}")
+def _lazy(name: str) -> object:
+    source = _SOURCES.get(name)
+    if source is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(source), name)
+    globals()[name] = value  # later look-ups no longer come here
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted({*globals(), *__all__})
+
+
+if not TYPE_CHECKING:
+    # Hidden from type checkers: a visible module __getattr__ would make them
+    # accept any misspelt name imported from this package.
+    __getattr__ = _lazy
