@@ -12,18 +12,17 @@ terminated and waited for, also when something fails on the way.
 from __future__ import annotations
 
 import argparse
-import asyncio
-import contextlib
-import shutil
-import signal
-import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stiction.errors import StictionError
+
+# asyncio, subprocess and the rest are imported where the demo runs, not when
+# `stiction --help` builds the parser from register() below.
+if TYPE_CHECKING:
+    import subprocess
 
 DEMO_SCENE = Path(__file__).resolve().parent / "scene" / "examples" / "demo.toml"
 DEFAULT_PORT = 8765
@@ -66,6 +65,8 @@ def _interrupt(signum: int, frame: object) -> None:
 
 
 def _stop(proc: subprocess.Popen[bytes]) -> None:
+    import subprocess
+
     if proc.poll() is None:
         proc.terminate()
         try:
@@ -76,6 +77,8 @@ def _stop(proc: subprocess.Popen[bytes]) -> None:
 
 
 async def _serve(pub: str, control: str, port: int, seconds: float | None) -> dict[str, Any]:
+    import asyncio
+
     from stiction.clients.web import server
     from stiction.clients.web.bridge import Bridge
 
@@ -106,6 +109,13 @@ def run_demo(
     scene: Path = DEMO_SCENE,
     device: str = "synthetic:demo",
 ) -> int:
+    import asyncio
+    import contextlib
+    import shutil
+    import signal
+    import subprocess
+    import tempfile
+
     from stiction.clients.web.errors import PortInUse
 
     if not scene.is_file():
