@@ -26,8 +26,12 @@ committed udev/70-stiction.rules is what the table says today.
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
-from stiction.drivers.hid.devices import DeviceEntry
+if TYPE_CHECKING:
+    # Only for annotations: `stiction --help` reads RULES_NAME from here, and
+    # the device table module (tomllib, importlib.resources) is not needed for that.
+    from stiction.drivers.hid.devices import DeviceEntry
 
 RULES_NAME = "70-stiction.rules"
 """Sorts before 73-seat-late.rules, where the uaccess ACLs are applied."""
