@@ -28,7 +28,10 @@ from stiction.sim import BatchSim, ContactSim, ContactState, Params, Touch
 from stiction.sim.integrators import DEFAULT_INTEGRATOR
 
 PX = 0.0254 / 220.0  # one pixel at 220 ppi, in metres
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 RATE_IN = 200.0  # tablet report rate: two samples per 100 Hz tick
 UNIT = 5e-6  # one device unit of a 200 lines/mm tablet (sensor noise)
 

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 from collections.abc import Callable, Sequence
@@ -33,7 +34,10 @@ from stiction import protocol
 from stiction.clients import Frame, Subscriber
 from stiction.clients.messages import wire_to_json
 
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 
 
 def sample_frame(tick: int) -> dict[str, Any]:

@@ -55,7 +55,10 @@ from typing import Any
 
 import numpy as np
 
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 DEFAULT_SECONDS = 20.0
 
 

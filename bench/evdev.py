@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import statistics
 import time
@@ -39,7 +40,10 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "evdev"
 RECORDINGS = [
     "wacom-cintiq-13hd-touch-pen.evemu",

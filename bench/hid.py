@@ -20,13 +20,17 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hid"
 TARGET_RATIO = 50.0
 TARGET_BATCH = 10e6

@@ -15,6 +15,7 @@ import argparse
 import gc
 import json
 import math
+import os
 import statistics
 import time
 from pathlib import Path
@@ -25,7 +26,10 @@ from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import parse_scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
-RESULTS = Path(__file__).resolve().parent / "results"
+# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
+RESULTS = Path(
+    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
+)
 SIZE = (0.2, 0.15)
 DISPLAY = (1920, 1080)
 SCENES = {
