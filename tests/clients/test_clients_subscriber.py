@@ -155,6 +155,19 @@ def test_gaps_are_counted(daemon: FakeDaemon) -> None:
         assert sub.stats.missed == 3
 
 
+def test_prev_tick_tells_a_device_that_was_away_from_lost_frames(daemon: FakeDaemon) -> None:
+    with Subscriber(daemon.pub_endpoint) as sub:
+        daemon.wait_subscribers()
+        # 3 -> 9: the device was unplugged, its frame 9 names 3 as its last.
+        # 10 -> 15: frame 15 names 12, so 11 and 12 were lost on the way.
+        sent = [(2, 1), (3, 2), (9, 3), (10, 9), (15, 12)]
+        for tick, prev in sent:
+            daemon.send(make_frame(tick, prev_tick=prev))
+        frames = list(sub.frames(count=5, seconds=30))
+        assert [(f.tick, f.prev_tick) for f in frames] == sent
+        assert sub.stats.missed == 2
+
+
 @pytest.mark.parametrize("transport", ["ipc", "tcp"])
 def test_daemon_restart_is_only_a_gap(transport: str, endpoints: tuple[str, str]) -> None:
     pub = endpoints[0] if transport == "ipc" else f"tcp://127.0.0.1:{free_port()}"

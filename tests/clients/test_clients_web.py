@@ -166,7 +166,7 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
         assert px[5] == px[6] and px[5][:3] != [250, 250, 250], px[5]
         status = page.inner_text("#status")
         assert "stick" in status and "string 96.0 px" in status and "sticky" in status
-        assert "ticks/s" in status and "latency" in status
+        assert "frames/s" in status and "latency" in status
         # "f": full screen at one canvas pixel per device pixel.
         page.keyboard.press("f")
         page.wait_for_function("document.body.classList.contains('exact')", timeout=10_000)

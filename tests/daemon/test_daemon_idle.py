@@ -1,5 +1,6 @@
-"""An idle daemon: frames with nothing new are held back, the loop stops
-ticking, and whatever makes work (input, a control request, a stop) wakes it.
+"""An idle daemon: with nothing happening the loop stops ticking (a keep-alive
+tick now and then), and whatever makes work (input, a control request, a
+stop) wakes it. Ticks stay consecutive; `t` jumps over the idle deadlines.
 
 Real clock and real sockets, but no sleeps: every wait is for an event the
 daemon signals, with a timeout only as a safety net.
@@ -109,6 +110,16 @@ def test_resume_rejoins_the_grid_without_counting_late_or_skipped() -> None:
     assert s.index == 235 and s.slept == 234
 
 
+def _until(sub: zmq.Socket[Any], pred: Any) -> tuple[dict[str, Any], list[dict[str, Any]]]:
+    """The first frame that satisfies pred, and every frame before it."""
+    before: list[dict[str, Any]] = []
+    while True:
+        f = _frames(sub, 1)[0]
+        if pred(f):
+            return f, before
+        before.append(f)
+
+
 def test_a_quiet_device_lets_the_loop_sleep_and_input_wakes_it(
     endpoints: tuple[str, str],
 ) -> None:
@@ -127,43 +138,51 @@ def test_a_quiet_device_lets_the_loop_sleep_and_input_wakes_it(
         reply = request(ctx, endpoints[1], protocol.make_request("stats"))
         assert reply["ok"] and reply["stats"]["ticks"] == ticks
         assert entered.wait(5)
-        # A pen comes into range: the loop wakes and publishes on the grid.
+        # A pen comes into range: the loop wakes and ticks on the same grid,
+        # the tick after the last one it ran, with a frame for the device.
         src.feed(PenSample(t=0.0, x=0.05, y=0.05, tip=False))
-        hover = _frames(sub, 1)[0]
+        hover, quiet = _until(sub, lambda f: f["contacts"])
         assert [c["phase"] for c in hover["contacts"]] == ["hover"]
-        assert hover["prev_tick"] == first["tick"] and hover["tick"] > first["tick"] + 1
+        chain = [first, *quiet, hover]
+        assert [f["tick"] for f in chain] == list(range(len(chain)))  # consecutive
+        assert all(b["prev_tick"] == a["tick"] for a, b in itertools.pairwise(chain))
+        assert hover["tick"] == ticks  # no tick ran while idle
         start, rate = d.schedule.start, d.schedule.rate
-        assert hover["t"] == pytest.approx(start + hover["tick"] / rate, abs=1e-9)
+        n = round((hover["t"] - start) * rate)
+        assert hover["t"] == pytest.approx(start + n / rate, abs=1e-9)  # on the grid
+        assert n >= hover["tick"]  # t jumps over idle deadlines, tick does not
         # While a contact lasts the device is active: a frame every tick.
         assert not entered.is_set()
         src.feed(PenSample(t=0.01, x=0.05, y=0.05, tip=False, in_range=False))
-        frames = _frames(sub, 2)
-        assert [c["phase"] for c in frames[0]["contacts"]] == ["up"]
-        # The hover frame said all there was until the pen left: held back till then.
-        assert frames[0]["prev_tick"] == hover["tick"]
-        assert frames[1]["contacts"] == [] and frames[1]["prev_tick"] == frames[0]["tick"]
+        up, hovering = _until(sub, lambda f: any(c["phase"] == "up" for c in f["contacts"]))
+        ticks_seen = [hover["tick"], *(f["tick"] for f in hovering), up["tick"]]
+        assert ticks_seen == list(range(hover["tick"], up["tick"] + 1))
+        after = _frames(sub, 1)[0]
+        assert after["contacts"] == [] and after["tick"] == up["tick"] + 1
         assert entered.wait(5)  # and quiet again
         stats = request(ctx, endpoints[1], protocol.make_request("stats"))["stats"]
         # How many deadlines passed while idle depends on this machine's speed;
-        # that the loop was woken (request, input) does not.
-        assert stats["idle_deadlines"] >= 0 and stats["idle_wakes"] >= 2
+        # that each was counted, and that the loop was woken, does not.
         assert stats["skipped_deadlines"] == 0
+        assert stats["idle_deadlines"] >= n - hover["tick"]
+        assert stats["idle_wakes"] >= 2
     assert not d.waker.armed
     sub.close()
 
 
-def test_keepalive_frames_come_on_time_and_chain(endpoints: tuple[str, str]) -> None:
+def test_keepalive_ticks_come_on_time(endpoints: tuple[str, str]) -> None:
     d = make_daemon(endpoints, {"pen": FedSource()}, keepalive=0.05)
     ctx = zmq.Context.instance()
     sub = subscribe(ctx, d, endpoints[0])
     with Runner(d):
-        frames = _frames(sub, 6)
+        frames = _frames(sub, 8)
     sub.close()
-    assert frames[0]["prev_tick"] == -1
-    for a, b in itertools.pairwise(frames):
-        assert b["prev_tick"] == a["tick"]
-        # at least the keep-alive apart, and no more than one tick late
-        assert 0.05 - 1e-9 <= b["t"] - a["t"] <= 0.06 + 1e-9
+    assert [f["tick"] for f in frames] == list(range(8))
+    assert [f["prev_tick"] for f in frames] == list(range(-1, 7))
+    # After the first two ticks (the second one finds nothing new), one tick
+    # per keep-alive: at least 50 ms apart and no more than a period late.
+    for a, b in itertools.pairwise(frames[1:]):
+        assert 0.04 - 1e-9 <= b["t"] - a["t"] <= 0.06 + 1e-9
         assert b["contacts"] == []
 
 
@@ -184,7 +203,7 @@ def test_stop_ends_an_idle_loop_at_once(endpoints: tuple[str, str]) -> None:
         d.close()
 
 
-def test_keepalive_zero_publishes_every_tick_and_never_idles(endpoints: tuple[str, str]) -> None:
+def test_keepalive_zero_ticks_every_period_and_never_idles(endpoints: tuple[str, str]) -> None:
     d = make_daemon(endpoints, {"pen": FedSource()}, keepalive=0)
     entered = _tap(d)
     ctx = zmq.Context.instance()
@@ -193,8 +212,6 @@ def test_keepalive_zero_publishes_every_tick_and_never_idles(endpoints: tuple[st
         frames = _frames(sub, 20)
         assert not entered.is_set()
     sub.close()
-    # Every deadline the loop ran has its frame; a gap in the ticks is only
-    # ever a deadline the machine made it skip (counted), never an idle one.
+    assert [f["tick"] for f in frames] == list(range(frames[0]["tick"], frames[0]["tick"] + 20))
     assert all(b["prev_tick"] == a["tick"] for a, b in itertools.pairwise(frames))
-    gaps = sum(b["tick"] - a["tick"] - 1 for a, b in itertools.pairwise(frames))
-    assert gaps <= d.schedule.skipped and d.schedule.slept == 0
+    assert d.schedule.slept == 0

@@ -27,10 +27,9 @@ from stiction.clients import recording
 from stiction.errors import ProtocolError, StictionError
 
 MAX_PAUSE = 2.0
-"""Longest wait between two frames, in recorded seconds. A live daemon sends
-each device's frame at least once per keep-alive (1 s by default) even when
-nothing changes, so a longer gap in a recording is an outage, replayed as a
-jump."""
+"""Longest wait between two frames, in recorded seconds. A live daemon ticks
+at least once per keep-alive (1 s by default) even while nothing happens, so
+a longer gap in a recording is an outage, replayed as a jump."""
 
 
 @dataclass

@@ -41,11 +41,11 @@ class SubscriberStats:
     """Messages replaced, unread and undecoded, by a newer one on the same topic
     (one stream per device, plus the scene) when conflating."""
     missed: int = 0
-    """Frames never seen (slow reader, reconnect). A frame whose ``prev_tick``
-    is not the last tick seen for its device follows lost frames; the ticks in
-    between are counted, which is exact while a device is active (a frame
-    every tick) and an upper bound across a quiet stretch. Ticks the daemon
-    held back (``prev_tick`` equal to the last tick seen) never count."""
+    """Frames never seen (slow reader, reconnect): the ticks between the last
+    frame seen of a device and the frame before this one (``prev_tick``). A
+    device that was away (unplugged, then back) sent no frames in between, and
+    its first frame back names its last one, so that gap is not counted. (From
+    a daemon that sends no ``prev_tick``, every gap in a device's ticks counts.)"""
     restarts: int = 0
     """Times a device's ticks went backwards: the daemon restarted."""
     disconnects: int = 0
@@ -171,7 +171,7 @@ class StreamState:
                 self.stats.restarts += 1
                 log.info("device %s restarted its ticks (%d after %d)", dev, frame.tick, last)
             else:
-                # Ticks the daemon held back (nothing new) are not missing.
+                # Ticks in which the device sent nothing (it was away) are not missing.
                 prev = frame.prev_tick if frame.prev_tick is not None else frame.tick - 1
                 if prev > last:
                     # Frames conflation replaced were received, not missed.

@@ -194,8 +194,8 @@ class DeviceSlot:
     """Tick of the last frame published for this device (the next frame's prev_tick)."""
     sent_t: float = -math.inf
     quiet: bool = False
-    """Its last frame had no contact and no new input: frames after it are
-    held back until something changes (or a keep-alive is due)."""
+    """Its last tick brought no input and left its contacts as they were: when
+    every device is quiet and none has a contact, the loop may idle."""
 
     def driver_stats(self) -> dict[str, int]:
         if self.source is None:

@@ -7,13 +7,13 @@ the rest of the period answering control requests and sleeping to the next
 absolute deadline. Anything a user or device can get wrong is logged and
 counted; the loop keeps the last good state and carries on.
 
-A frame that says nothing new (no input since the last one, the same
-contacts) is held back, apart from a keep-alive every `keepalive` seconds;
-each frame names the tick of the one before it, so a client still tells a
-held-back frame from a lost one. When no device has a contact or pending
-input the loop stops ticking altogether and sleeps until a producer wakes it
-(stiction.daemon.wake): a daemon left running beside an unused tablet costs
-next to nothing.
+Every tick that runs publishes one frame per open device, and ticks are
+numbered consecutively (architecture.md's frame contract). But when no device
+has a contact, input waiting, or anything new to say, the loop stops ticking
+and sleeps until a producer wakes it (stiction.daemon.wake), running one
+keep-alive tick every `keepalive` seconds meanwhile: the deadlines it sleeps
+through are skipped like a late loop's, `t` jumps and `tick` does not. A
+daemon left running beside an unused tablet costs next to nothing.
 """
 
 from __future__ import annotations
@@ -89,8 +89,8 @@ class Options:
     stats_window: int = 10_000
     """Ticks kept for the jitter/latency percentiles of the stats reply."""
     keepalive: float = 1.0
-    """Seconds between the frames of a device with nothing new to say;
-    0 publishes every device every tick and never idles."""
+    """While nothing happens, run one tick (a frame per device) every this
+    many seconds instead of every period; 0 never idles."""
     spin_ms: float = 0.3
     """Sleep to this long before each deadline, then poll the clock (RealClock)."""
     start: float | None = None
@@ -422,8 +422,7 @@ class Daemon:
     def _tick(self, t: float, prev_t: float) -> None:
         pub = self.publisher
         assert pub is not None
-        tick = self.schedule.index
-        keepalive = self.opts.keepalive
+        tick = self.schedule.ticks
         for slot in self.slots:
             run = slot.run
             if run is None:
@@ -459,17 +458,11 @@ class Daemon:
                 contacts = [c for c in contacts if c["id"] not in ids] + ended
                 contacts.sort(key=lambda c: c["id"])
             last = self.last_frames.get(slot.name)
-            # Nothing new (no input, the same contacts): hold the frame back
-            # unless a keep-alive is due.
+            # Nothing new (no input, the same contacts as its last frame): if
+            # every device is quiet and none has a contact, the loop may idle.
             slot.quiet = (
-                keepalive > 0
-                and not samples
-                and not finished
-                and last is not None
-                and last["contacts"] == contacts
+                not samples and not finished and last is not None and last["contacts"] == contacts
             )
-            if slot.quiet and t - slot.sent_t < keepalive:
-                continue
             frame: dict[str, Any] = {
                 "v": protocol.SCHEMA_VERSION,
                 "kind": protocol.KIND_FRAME,

@@ -13,8 +13,8 @@ export class RateMeter {
   }
 }
 
-// The daemon's tick rate, from tick numbers and tick times (not arrival): frames
-// it holds back while nothing changes leave gaps in the ticks, not in the rate.
+// The daemon's own frame rate, from tick numbers and tick times (not arrival):
+// 100/s while something happens, one keep-alive a second while it idles.
 export function daemonRate(prev, frame) {
   if (!prev || frame.t <= prev.t || frame.tick <= prev.tick) return null;
   return (frame.tick - prev.tick) / (frame.t - prev.t);
@@ -32,7 +32,7 @@ export function statusText({ link, frames, drawRate, receiveRate, tickRate, late
     }
   }
   parts.push(contacts.length ? contacts.join("  |  ") : frames.length ? `${frames.map((f) => f.device).join(", ")}: no contact` : "no device yet");
-  parts.push(`daemon ${fmt(tickRate, 0)} ticks/s, received ${receiveRate}/s, drawn ${drawRate}/s`);
+  parts.push(`daemon ${fmt(tickRate, 0)} frames/s, received ${receiveRate}/s, drawn ${drawRate}/s`);
   const lat = latencyMs === null ? "tick→bridge n/a" : `tick→bridge ${fmt(latencyMs, 1)} ms`;
   parts.push(`latency ${lat} + bridge→screen ${fmt(screenMs, 1)} ms`);
   // Two lines: what the pen is doing, then how the pipeline is doing.
