@@ -44,6 +44,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import subprocess
 import sys
 import tempfile
@@ -351,11 +352,20 @@ def main(argv: list[str]) -> int:
     )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
+    if args.seconds <= 0.5:
+        ap.error("--seconds must be more than 0.5: the first 0.5 s of latency are a warm-up")
+    tmp = tempfile.mkdtemp(prefix="stiction-bench-")
+    try:
+        return _measure(args, tmp)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+
+
+def _measure(args: argparse.Namespace, tmp: str) -> int:
     import zmq
 
     base_s = args.baseline_seconds or args.seconds
     idle_s = args.idle_seconds or min(10.0, args.seconds)
-    tmp = tempfile.mkdtemp(prefix="stiction-bench-")
     res: dict[str, Any] = {
         "seconds": args.seconds,
         "baseline_seconds": base_s,
