@@ -13,8 +13,6 @@ from __future__ import annotations
 
 import argparse
 import importlib
-import importlib.util
-import logging
 import sys
 from collections.abc import Sequence
 from pathlib import Path
@@ -47,6 +45,8 @@ def _bench_names() -> list[str]:
 
 
 def _run_bench(args: argparse.Namespace) -> int:
+    import importlib.util
+
     names = _bench_names()
     if not names:
         raise StictionError(
@@ -94,6 +94,8 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
+    import logging  # not before: `stiction --help` and argument errors do not need it
+
     logging.basicConfig(
         level=logging.WARNING - 10 * min(args.verbose, 2),
         format="%(levelname)s %(name)s: %(message)s",
