@@ -253,6 +253,7 @@ def run_daemon(
     start: float | None = None,
     keepalive: float = 1.0,
     spin_ms: float | None = None,
+    realtime: int = 0,
 ) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
     """Run stictiond in this process; returns its stats, CPU %, grid start,
     and the lateness of every tick it ran with that tick's grid index."""
@@ -269,6 +270,7 @@ def run_daemon(
         stats_window=round(seconds * rate) + 100,
         start=start,
         keepalive=keepalive,
+        realtime=realtime,
     )
     if spin_ms is not None:
         opts.spin_ms = spin_ms
@@ -350,6 +352,13 @@ def main(argv: list[str]) -> int:
         type=float,
         help="the daemon's spin_ms (default: the daemon's own, 0.3); 0 to see a plain sleep",
     )
+    ap.add_argument(
+        "--realtime",
+        type=int,
+        default=0,
+        metavar="PRIO",
+        help="run the daemon's loop under SCHED_FIFO at PRIO (the baselines stay ordinary)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.seconds <= 0.5:
@@ -399,7 +408,13 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         subs = Subscribers(pub, args.subscribers, tmp)
         steal0 = _steal()
         stats, cpu, start, jit, idx = run_daemon(
-            args.seconds, args.rate, pub, ctl, args.device, spin_ms=args.spin_ms
+            args.seconds,
+            args.rate,
+            pub,
+            ctl,
+            args.device,
+            spin_ms=args.spin_ms,
+            realtime=args.realtime,
         )
         steal1 = _steal()
         got = subs.finish()
@@ -420,7 +435,14 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         raw_proc.go(grid + 2 * period / 3)
         steal0 = _steal()
         stats, cpu, start, jit, idx = run_daemon(
-            args.seconds, args.rate, pub, ctl, args.device, start=grid, spin_ms=args.spin_ms
+            args.seconds,
+            args.rate,
+            pub,
+            ctl,
+            args.device,
+            start=grid,
+            spin_ms=args.spin_ms,
+            realtime=args.realtime,
         )
         steal1 = _steal()
         bare, raw = bare_proc.result(), raw_proc.result()
@@ -450,6 +472,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "input_to_publish_ms": stats["latency_ms"],
         "tick_cost_ms": stats["tick_cost_ms"],
         "device": next(iter(stats["devices"].values())),
+        "realtime": stats["realtime"],
     }
 
     print(f"stictiond idle, {idle_s:g} s ...", file=sys.stderr)
@@ -486,6 +509,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
     stem = "daemon" if args.seconds == DEFAULT_SECONDS else f"daemon-{args.seconds:g}s"
     if args.spin_ms is not None:
         stem += f"-spin{args.spin_ms:g}"
+    if args.realtime:
+        stem += f"-rt{args.realtime}"
     RESULTS.mkdir(parents=True, exist_ok=True)
     (RESULTS / f"{stem}.txt").write_text(table + "\n")
     (RESULTS / f"{stem}.json").write_text(json.dumps(res, indent=2))
@@ -510,7 +535,8 @@ def _table(res: dict[str, Any]) -> str:
         f"stictiond timing at {res['rate']:g} Hz, {res['subscribers']} subscriber processes, "
         f"{res['seconds']:g} s, baselines {res['mode']} ({how}), "
         f"{res['cpus']} CPUs (shared machine); CPU time stolen by the hypervisor during the "
-        f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}",
+        f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}, "
+        f"SCHED_FIFO priority: {d.get('realtime', 0) or 'none (ordinary)'}",
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
     ]
 

@@ -83,7 +83,8 @@ def build_parser() -> argparse.ArgumentParser:
     bench = sub.add_parser(
         "bench",
         help="run a benchmark from bench/ (accuracy, hid, evdev, daemon, ... or all)",
-        description="Run a benchmark; it prints a table and writes its figures to bench/results/.",
+        description="Run a benchmark; it prints a table and writes its figures to bench/results/ "
+        "(or to $STICTION_BENCH_RESULTS when set).",
     )
     bench.add_argument("name", help="benchmark name, or 'all'")
     bench.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the benchmark")

@@ -119,6 +119,9 @@ def test_virtual_replay_exits_at_the_end_of_the_stream(evdev_data: Path, tmp_pat
         (["--pub", "tcp://0.0.0.0:5556"], "needs CURVE keys"),
         (["--config", "/no/such/config.toml"], "cannot read config"),
         (["--device", "synthetic:nope"], "unknown synthetic stroke"),
+        (["--keepalive", "-1"], "keepalive must be 0 or more seconds"),
+        (["--spin-ms", "9"], "spin_ms must be from 0 to 5"),
+        (["--realtime", "150"], "realtime must be a priority 1-99"),
     ],
 )
 def test_user_errors_are_one_line(
@@ -143,3 +146,15 @@ def test_config_errors_name_file_line_and_key(tmp_path: Path) -> None:
     cfg.write_text("[daemon]\nrat = 100\n")
     with pytest.raises(ConfigError, match=r"c\.toml:2: daemon\.rat: unknown key"):
         load_options(cfg)
+    for line, message in (
+        ("keepalive = -1", r"daemon\.keepalive: must be 0 \(every tick\) or more seconds"),
+        ("spin_ms = 6", r"daemon\.spin_ms: must be from 0 to 5"),
+        ("realtime = true", r"daemon\.realtime: must be a priority 1-99"),
+        ("realtime = 100", r"daemon\.realtime: must be a priority 1-99"),
+    ):
+        cfg.write_text(f"[daemon]\n{line}\n")
+        with pytest.raises(ConfigError, match=rf"c\.toml:2: {message}"):
+            load_options(cfg)
+    cfg.write_text("[daemon]\nkeepalive = 0\nspin_ms = 0\nrealtime = 20\n")
+    opts = load_options(cfg)
+    assert (opts.keepalive, opts.spin_ms, opts.realtime) == (0.0, 0.0, 20)

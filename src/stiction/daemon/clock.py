@@ -18,8 +18,10 @@ those deadlines as missed.
 
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import math
+import os
 import sys
 import time
 from typing import Protocol
@@ -95,6 +97,36 @@ class VirtualClock:
 
     def sleep_until(self, deadline: float) -> None:
         self._now = max(self._now, deadline)
+
+
+def set_realtime(priority: int) -> str | None:
+    """Run the calling thread under SCHED_FIFO at `priority` (1-99).
+
+    A real-time thread runs the moment it wakes, ahead of every ordinary
+    process: on a busy machine (renderers, a compositor, a build) the tick no
+    longer waits for them. SCHED_RESET_ON_FORK makes every thread and process
+    it starts ordinary again, so only the loop is real-time. Returns None, or
+    why the kernel refused (it needs CAP_SYS_NICE or an RLIMIT_RTPRIO of at
+    least `priority`); the thread is then unchanged.
+    """
+    if not hasattr(os, "sched_setscheduler"):
+        return "real-time scheduling is not available on this platform"
+    try:
+        policy = os.SCHED_FIFO | os.SCHED_RESET_ON_FORK
+        os.sched_setscheduler(0, policy, os.sched_param(priority))
+    except OSError as exc:
+        return (
+            f"{exc.strerror or exc}: SCHED_FIFO needs CAP_SYS_NICE or an "
+            f"RLIMIT_RTPRIO of at least {priority} (docs/daemon.md)"
+        )
+    return None
+
+
+def set_ordinary() -> None:
+    """Back to ordinary scheduling (lowering a thread's priority needs no rights)."""
+    if hasattr(os, "sched_setscheduler"):
+        with contextlib.suppress(OSError):
+            os.sched_setscheduler(0, os.SCHED_OTHER, os.sched_param(0))
 
 
 class Schedule:

@@ -37,6 +37,7 @@ _DAEMON_KEYS = {
     "hotplug",
     "keepalive",
     "spin_ms",
+    "realtime",
 }
 _SIM_KEYS = {"integrator", "substeps", "k", "m", "g", "mu_s", "mu_k", "C_l"}
 _CURVE_KEYS = {"secret_key", "authorized_keys", "required"}
@@ -139,6 +140,11 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         if not 0 <= spin <= 5:
             r.fail(("daemon", "spin_ms"), "must be from 0 to 5 (milliseconds)")
         opts.spin_ms = spin
+    if "realtime" in d:
+        prio = d["realtime"]
+        if isinstance(prio, bool) or not isinstance(prio, int) or not 0 <= prio <= 99:
+            r.fail(("daemon", "realtime"), f"must be a priority 1-99 (0: off), got {prio!r}")
+        opts.realtime = prio
     if "hotplug" in d:
         if not isinstance(d["hotplug"], bool):
             r.fail(("daemon", "hotplug"), "must be true or false")

@@ -55,6 +55,13 @@ def build_parser() -> argparse.ArgumentParser:
         help="seconds between frames of a device with nothing new (default 1; 0: every tick)",
     )
     p.add_argument(
+        "--realtime",
+        type=int,
+        metavar="PRIO",
+        help="run the loop under SCHED_FIFO at this priority, 1-99 (needs CAP_SYS_NICE "
+        "or RLIMIT_RTPRIO; refused: logged, ordinary scheduling)",
+    )
+    p.add_argument(
         "--spin-ms",
         type=float,
         metavar="MS",
@@ -85,7 +92,8 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
         opts.scene = args.scene
         opts.scene_from_flag = True
     for name in (
-        "pub", "control", "clock", "rate", "seconds", "integrator", "hwm", "keepalive", "spin_ms"
+        "pub", "control", "clock", "rate", "seconds", "integrator", "hwm", "keepalive", "spin_ms",
+        "realtime",
     ):  # fmt: skip
         value = getattr(args, name)
         if value is not None:

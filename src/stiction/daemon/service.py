@@ -32,7 +32,15 @@ from typing import Any
 import zmq
 
 from stiction import __version__, protocol
-from stiction.daemon.clock import Clock, RealClock, Schedule, VirtualClock, tighten_timer_slack
+from stiction.daemon.clock import (
+    Clock,
+    RealClock,
+    Schedule,
+    VirtualClock,
+    set_ordinary,
+    set_realtime,
+    tighten_timer_slack,
+)
 from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
     ClockMap,
@@ -96,6 +104,8 @@ class Options:
     start: float | None = None
     """Monotonic time of deadline 0 (real clock); default 10 ms after run()
     starts. Processes that share CLOCK_MONOTONIC can share a grid."""
+    realtime: int = 0
+    """SCHED_FIFO priority (1-99) for the loop thread; 0: ordinary scheduling."""
 
 
 class Daemon:
@@ -122,6 +132,10 @@ class Daemon:
             raise StictionError(
                 f"spin_ms must be from 0 to 5 (milliseconds), got {opts.spin_ms:g}"
             ) from None
+        if not 0 <= opts.realtime <= 99:
+            raise StictionError(f"realtime must be a priority 1-99 (0: off), got {opts.realtime}")
+        self.realtime = 0
+        """The SCHED_FIFO priority the loop runs at (0: ordinary)."""
         self.waker = Waker()
         self._own_ctx = ctx is None
         self.ctx: zmq.Context[Any] = ctx if ctx is not None else zmq.Context()
@@ -323,6 +337,14 @@ class Daemon:
         sys.setswitchinterval(min(switch, SWITCH_INTERVAL_S))
         if not self.virtual:
             tighten_timer_slack()
+            if self.opts.realtime:
+                refused = set_realtime(self.opts.realtime)
+                if refused:
+                    prio = self.opts.realtime
+                    log.warning("realtime_refused priority=%d reason=%s", prio, refused)
+                else:
+                    self.realtime = self.opts.realtime
+                    log.info("realtime priority=%d", self.realtime)
         # Everything built so far (modules, scene, compiled kernels) lives as
         # long as the daemon: out of the collector's way, so that a full
         # collection during a tick walks only what the ticks allocate.
@@ -333,6 +355,8 @@ class Daemon:
         finally:
             sys.setswitchinterval(switch)
             gc.unfreeze()
+            if self.realtime:
+                set_ordinary()  # the thread may be the caller's; stats still say how it ran
 
     def _run(self) -> int:
         assert self.publisher is not None
@@ -593,6 +617,7 @@ class Daemon:
             "skipped_deadlines": self.schedule.skipped,
             "idle_deadlines": self.schedule.slept,
             "idle_wakes": self.waker.wakes,
+            "realtime": self.realtime,
             "late_threshold_ms": self.schedule.late_threshold * 1e3,
             "jitter_ms": self.jitter.summary(1e3),
             "latency_ms": self.latency.summary(1e3),
