@@ -391,6 +391,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
 
     pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
     raw_endpoint = f"ipc://{tmp}/raw"
+    daemon_args = (args.seconds, args.rate, pub, ctl, args.device)
+    daemon_opts: dict[str, Any] = {"spin_ms": args.spin_ms, "realtime": args.realtime}
     if args.sequential:
         print(f"bare loop, {base_s:g} s ...", file=sys.stderr)
         bare = bare_loop(base_s, args.rate)
@@ -407,15 +409,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         print(f"stictiond with {args.device}, {args.seconds:g} s ...", file=sys.stderr)
         subs = Subscribers(pub, args.subscribers, tmp)
         steal0 = _steal()
-        stats, cpu, start, jit, idx = run_daemon(
-            args.seconds,
-            args.rate,
-            pub,
-            ctl,
-            args.device,
-            spin_ms=args.spin_ms,
-            realtime=args.realtime,
-        )
+        stats, cpu, start, jit, idx = run_daemon(*daemon_args, **daemon_opts)
         steal1 = _steal()
         got = subs.finish()
     else:
@@ -434,16 +428,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         bare_proc.go(grid + period / 3)
         raw_proc.go(grid + 2 * period / 3)
         steal0 = _steal()
-        stats, cpu, start, jit, idx = run_daemon(
-            args.seconds,
-            args.rate,
-            pub,
-            ctl,
-            args.device,
-            start=grid,
-            spin_ms=args.spin_ms,
-            realtime=args.realtime,
-        )
+        stats, cpu, start, jit, idx = run_daemon(*daemon_args, start=grid, **daemon_opts)
         steal1 = _steal()
         bare, raw = bare_proc.result(), raw_proc.result()
         got = subs.finish()

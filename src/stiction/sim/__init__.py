@@ -73,8 +73,9 @@ EXTENSIONS (beyond the contract above, all optional):
 
 from __future__ import annotations
 
-import importlib
 from typing import TYPE_CHECKING
+
+from stiction.lazy import exports as _exports
 
 if TYPE_CHECKING:
     from stiction.sim.batch import BatchSim
@@ -109,18 +110,7 @@ _SOURCES = {
 }
 
 
-def _lazy(name: str) -> object:
-    source = _SOURCES.get(name)
-    if source is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    value = getattr(importlib.import_module(source), name)
-    globals()[name] = value  # later look-ups no longer come here
-    return value
-
-
-def __dir__() -> list[str]:
-    return sorted({*globals(), *__all__})
-
+_lazy, __dir__ = _exports(__name__, _SOURCES, globals(), __all__)
 
 if not TYPE_CHECKING:
     # Hidden from type checkers: a visible module __getattr__ would make them
