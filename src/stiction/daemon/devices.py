@@ -192,10 +192,9 @@ class DeviceSlot:
     lookahead: PenSample | None = None
     sent_tick: int = -1
     """Tick of the last frame published for this device (the next frame's prev_tick)."""
-    sent_t: float = -math.inf
     quiet: bool = False
-    """Its last tick brought no input and left its contacts as they were: when
-    every device is quiet and none has a contact, the loop may idle."""
+    """Its last tick brought no input and no contact, nor did the one before:
+    when every device is quiet, the loop may idle."""
 
     def driver_stats(self) -> dict[str, int]:
         if self.source is None:

@@ -145,6 +145,8 @@ class Daemon:
         self.slots: list[DeviceSlot] = []
         self.schedule = Schedule(opts.rate, 0.0, _ms(opts.late_threshold_ms))
         self.last_tick = -1
+        self.last_tick_t = -math.inf
+        """Deadline of the last tick run (the keep-alive counts from it)."""
         self.last_frames: dict[str, dict[str, Any]] = {}
         self.jitter = Window(opts.stats_window)
         self.latency = Window(opts.stats_window)
@@ -427,10 +429,8 @@ class Daemon:
                 or (self.hotplug is not None and not self.hotplug.ready.empty())
             )
             if not busy:
-                due = min(
-                    (s.sent_t + self.opts.keepalive for s in self.slots if s.run is not None),
-                    default=math.inf,
-                )
+                running = any(s.run is not None for s in self.slots)
+                due = self.last_tick_t + self.opts.keepalive if running else math.inf
                 if limit is not None:
                     due = min(due, self.schedule.start + limit / self.schedule.rate)
                 # Wake a tick before the keep-alive is due, to publish it on time.
@@ -482,10 +482,15 @@ class Daemon:
                 contacts = [c for c in contacts if c["id"] not in ids] + ended
                 contacts.sort(key=lambda c: c["id"])
             last = self.last_frames.get(slot.name)
-            # Nothing new (no input, the same contacts as its last frame): if
-            # every device is quiet and none has a contact, the loop may idle.
+            # No input and no contact, after a frame that had no contact either
+            # (so the state after a lift-off is published once): if every
+            # device is quiet, the loop may idle.
             slot.quiet = (
-                not samples and not finished and last is not None and last["contacts"] == contacts
+                not samples
+                and not finished
+                and not contacts
+                and last is not None
+                and not last["contacts"]
             )
             frame: dict[str, Any] = {
                 "v": protocol.SCHEMA_VERSION,
@@ -500,7 +505,6 @@ class Daemon:
             pub.send(protocol.frame_topic(slot.name), frame)
             self.last_frames[slot.name] = frame
             slot.sent_tick = tick
-            slot.sent_t = t
             if newest is not None:
                 self.latency.add(time.monotonic() - newest)
             if finished:
@@ -511,6 +515,7 @@ class Daemon:
                     slot.source.close()
                 log.info("device_stopped device=%s state=%s", slot.name, slot.state)
         self.last_tick = tick
+        self.last_tick_t = t
 
     # ------------------------------------------------------------ scene and params
     def _publish_scene(self) -> None:
