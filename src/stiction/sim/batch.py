@@ -42,7 +42,7 @@ from stiction.sim.contact import (
     UP,
     V_REST,
 )
-from stiction.sim.integrators import check_stable, resolve
+from stiction.sim.integrators import check_substeps, checked_params, resolve
 from stiction.sim.params import Params, check_tick
 from stiction.sim.state import ContactState, Phase
 
@@ -113,9 +113,7 @@ class BatchSim:
         self.integrator = resolve(integrator)
         if self.integrator == "rk4":
             raise ParamError("rk4 has no batch form; use the default integrator in BatchSim")
-        if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
-            raise ParamError(f"substeps must be an integer >= 1, got {substeps!r}")
-        self.substeps = substeps
+        self.substeps = check_substeps(substeps)
         self.events = (self.integrator == "exact") if events is None else bool(events)
         if self.events and self.integrator != "exact":
             raise ParamError(
@@ -144,10 +142,7 @@ class BatchSim:
         self._set_params(params if params is not None else Params())
 
     def _set_params(self, params: Params) -> None:
-        if not isinstance(params, Params):
-            raise ParamError(f"params must be a stiction.sim.Params, got {type(params).__name__}")
-        check_stable(self.integrator, params, self.substeps)
-        self.params = params
+        self.params = params = checked_params(self.integrator, params, self.substeps)
         self._k, self._m, self._c, self._w = params.k, params.m, params.c, params.w
         self._hmax = params.dt / self.substeps
         full = kernels.propagator(self._w, self._hmax)

@@ -19,7 +19,7 @@ from typing import Any
 
 from stiction.errors import ParamError
 from stiction.sim import kernels
-from stiction.sim.integrators import INTEGRATORS, check_stable, resolve
+from stiction.sim.integrators import INTEGRATORS, check_substeps, checked_params, resolve
 from stiction.sim.params import Params, check_tick
 from stiction.sim.state import ContactState, Phase
 
@@ -57,9 +57,7 @@ class ContactSim:
         string: bool = True,
     ) -> None:
         self.integrator = resolve(integrator)
-        if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
-            raise ParamError(f"substeps must be an integer >= 1, got {substeps!r}")
-        self.substeps = substeps
+        self.substeps = check_substeps(substeps)
         self.events = (self.integrator == "exact") if events is None else bool(events)
         self.string = bool(string)
         self.rejected_samples = 0
@@ -83,10 +81,7 @@ class ContactSim:
 
     # ----------------------------------------------------------------- set-up
     def _set_params(self, params: Params) -> None:
-        if not isinstance(params, Params):
-            raise ParamError(f"params must be a stiction.sim.Params, got {type(params).__name__}")
-        check_stable(self.integrator, params, self.substeps)
-        self.params = params
+        self.params = params = checked_params(self.integrator, params, self.substeps)
         self._k, self._m, self._c, self._w = params.k, params.m, params.c, params.w
         self._hmax = params.dt / self.substeps
         self._c0 = self._coeffs_for(self._hmax)

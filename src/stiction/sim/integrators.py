@@ -83,6 +83,21 @@ def _poly_exp(
     )
 
 
+def check_substeps(substeps: object) -> int:
+    """The substep count both steppers accept: an integer >= 1 (not a bool)."""
+    if isinstance(substeps, bool) or not isinstance(substeps, int) or substeps < 1:
+        raise ParamError(f"substeps must be an integer >= 1, got {substeps!r}")
+    return substeps
+
+
+def checked_params(name: str, params: object, substeps: int) -> Params:
+    """params, once it is a Params that integrator `name` is stable at."""
+    if not isinstance(params, Params):
+        raise ParamError(f"params must be a stiction.sim.Params, got {type(params).__name__}")
+    check_stable(name, params, substeps)
+    return params
+
+
 def check_stable(name: str, params: Params, substeps: int) -> None:
     """Refuse a fixed-step integrator whose step would amplify errors."""
     if name not in _CONDITIONAL:
