@@ -340,11 +340,7 @@ class BatchSim:
                         cut[ii[pieces[ii] > max_pieces]] = True
                         if cut.any():
                             # As ContactSim: a long gap ends at rest (see _BASE_PIECES).
-                            self.truncated_steps += int(np.count_nonzero(cut))
-                            sub[UX, cut] = sub[TGTX, cut]
-                            sub[UY, cut] = sub[TGTY, cut]
-                            self._decide_subset(sub, md, cut, False)
-                            live &= ~cut
+                            self.truncated_steps += self._end_step(sub, md, cut, live)
                             ii = ii[~cut[ii]]
                     if ii.size:
                         s2 = sub[:, ii]
@@ -359,11 +355,16 @@ class BatchSim:
                 over = live & (zero > _MAX_ZERO_EVENTS)
                 if over.any():
                     # As ContactSim: end the step consistently (see _run there).
-                    self.event_overflows += int(np.count_nonzero(over))
-                    sub[UX, over] = sub[TGTX, over]
-                    sub[UY, over] = sub[TGTY, over]
-                    self._decide_subset(sub, md, over, False)
-                    live &= ~over
+                    self.event_overflows += self._end_step(sub, md, over, live)
+
+    def _end_step(self, sub: F, md: npt.NDArray[np.int8], mask: B, live: B) -> int:
+        """Cut the step short for the mask's contacts: touch at its target, rest
+        decision, no longer live. Returns how many there were."""
+        sub[UX, mask] = sub[TGTX, mask]
+        sub[UY, mask] = sub[TGTY, mask]
+        self._decide_subset(sub, md, mask, False)
+        live &= ~mask
+        return int(np.count_nonzero(mask))
 
     def _stick(self, s: F, md: npt.NDArray[np.int8]) -> tuple[B, F]:
         if not self.events:
