@@ -5,7 +5,6 @@ counting, conflation and snapshot behaviour: both use stream.StreamState."""
 from __future__ import annotations
 
 import asyncio
-import contextlib
 from collections.abc import AsyncIterator, Iterable, Sequence
 from typing import cast
 
@@ -18,8 +17,7 @@ from stiction.clients import control
 from stiction.clients.curve import CurveKeys
 from stiction.clients.messages import Frame, Message
 from stiction.clients.stream import StreamState, SubscriberStats, normalise_kinds, subscriptions
-from stiction.clients.subscriber import DRAIN_LIMIT, configure_sub
-from stiction.errors import StictionError
+from stiction.clients.subscriber import DRAIN_LIMIT, close_sub, open_sub
 
 
 class AsyncSubscriber:
@@ -48,20 +46,15 @@ class AsyncSubscriber:
         self.endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
         self._state = StreamState(kinds_t, devs, conflate)
         self._ctx = context or zmq.asyncio.Context.instance()
-        self._sock = self._ctx.socket(zmq.SUB)
-        configure_sub(self._sock, hwm, heartbeat)
-        if curve is not None:
-            curve.apply(self._sock)
+        self._sock, self._monitor = open_sub(
+            self._ctx,
+            self.endpoints,
+            subscriptions(kinds_t, devs),
+            hwm=hwm,
+            heartbeat=heartbeat,
+            curve=curve,
+        )
         self._curve = curve
-        for topic in subscriptions(kinds_t, devs):
-            self._sock.setsockopt(zmq.SUBSCRIBE, topic)
-        for ep in self.endpoints:
-            try:
-                self._sock.connect(ep)
-            except zmq.ZMQError as exc:
-                self._sock.close()
-                raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
-        self._monitor = self._sock.get_monitor_socket(zmq.EVENT_CONNECTED | zmq.EVENT_DISCONNECTED)
         self._control = control
         self._snapshot_timeout = snapshot_timeout
         self._ready: list[Message] = []
@@ -146,10 +139,7 @@ class AsyncSubscriber:
                     return
 
     def close(self) -> None:
-        with contextlib.suppress(zmq.ZMQError):
-            self._sock.disable_monitor()
-        self._monitor.close(linger=0)
-        self._sock.close(linger=0)
+        close_sub(self._sock, self._monitor)
 
     async def __aenter__(self) -> AsyncSubscriber:
         await self.start()

@@ -15,7 +15,7 @@ from __future__ import annotations
 import contextlib
 import time
 from collections.abc import Iterable, Iterator, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING, Any, TypeVar
 
 import zmq
 from zmq.utils.monitor import parse_monitor_message
@@ -29,6 +29,8 @@ from stiction.errors import StictionError
 
 if TYPE_CHECKING:
     from stiction.clients.columns import ContactTable
+
+S = TypeVar("S", bound="zmq.Socket[Any]")
 
 DRAIN_LIMIT = 100_000
 """Most messages read in one go when conflating, so a flood cannot starve the caller."""
@@ -49,8 +51,42 @@ def configure_sub(sock: zmq.Socket[Any], hwm: int, heartbeat: float) -> None:
     sock.setsockopt(zmq.MAXMSGSIZE, 4 * protocol.MAX_MESSAGE_BYTES)
 
 
-def _endpoints(endpoint: str | Sequence[str]) -> list[str]:
-    return [endpoint] if isinstance(endpoint, str) else list(endpoint)
+def open_sub(
+    ctx: zmq.Context[S],
+    endpoints: Sequence[str],
+    topics: Iterable[bytes],
+    *,
+    hwm: int,
+    heartbeat: float,
+    curve: CurveKeys | None,
+) -> tuple[S, S]:
+    """A configured SUB socket connected to ``endpoints``, and its monitor socket.
+
+    Shared by Subscriber and AsyncSubscriber: an asyncio context gives asyncio
+    sockets, a plain one plain sockets. Raises StictionError (socket closed)
+    when an endpoint cannot be connected.
+    """
+    sock = ctx.socket(zmq.SUB)
+    configure_sub(sock, hwm, heartbeat)
+    if curve is not None:
+        curve.apply(sock)
+    for topic in topics:
+        sock.setsockopt(zmq.SUBSCRIBE, topic)
+    for ep in endpoints:
+        try:
+            sock.connect(ep)
+        except zmq.ZMQError as exc:
+            sock.close()
+            raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
+    return sock, sock.get_monitor_socket(zmq.EVENT_CONNECTED | zmq.EVENT_DISCONNECTED)
+
+
+def close_sub(sock: zmq.Socket[Any], monitor: zmq.Socket[Any]) -> None:
+    """Close a socket from open_sub and its monitor, at once (no linger)."""
+    with contextlib.suppress(zmq.ZMQError):
+        sock.disable_monitor()
+    monitor.close(linger=0)
+    sock.close(linger=0)
 
 
 class Subscriber:
@@ -82,23 +118,18 @@ class Subscriber:
     ) -> None:
         kinds_t = normalise_kinds(kinds)
         devs = None if devices is None else tuple(devices)
-        self.endpoints = _endpoints(endpoint)
+        self.endpoints = [endpoint] if isinstance(endpoint, str) else list(endpoint)
         self._state = StreamState(kinds_t, devs, conflate)
         self._ctx = context or zmq.Context.instance()
-        self._sock: zmq.Socket[Any] = self._ctx.socket(zmq.SUB)
-        configure_sub(self._sock, hwm, heartbeat)
-        if curve is not None:
-            curve.apply(self._sock)
-        for topic in subscriptions(kinds_t, devs):
-            self._sock.setsockopt(zmq.SUBSCRIBE, topic)
-        try:
-            for ep in self.endpoints:
-                self._sock.connect(ep)
-        except zmq.ZMQError as exc:
-            self._sock.close()
-            raise StictionError(f"cannot connect to {ep!r}: {exc}") from exc
-        self._monitor: zmq.Socket[Any] = self._sock.get_monitor_socket(
-            zmq.EVENT_CONNECTED | zmq.EVENT_DISCONNECTED
+        self._sock: zmq.Socket[Any]
+        self._monitor: zmq.Socket[Any]
+        self._sock, self._monitor = open_sub(
+            self._ctx,
+            self.endpoints,
+            subscriptions(kinds_t, devs),
+            hwm=hwm,
+            heartbeat=heartbeat,
+            curve=curve,
         )
         self._ready: list[Message] = []
         if control is not None:
@@ -202,10 +233,7 @@ class Subscriber:
         return ContactTable.from_frames(self.frames(count, seconds, idle))
 
     def close(self) -> None:
-        with contextlib.suppress(zmq.ZMQError):
-            self._sock.disable_monitor()
-        self._monitor.close(linger=0)
-        self._sock.close(linger=0)
+        close_sub(self._sock, self._monitor)
 
     def __enter__(self) -> Subscriber:
         return self
