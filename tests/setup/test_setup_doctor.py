@@ -67,22 +67,24 @@ def _evdev(data: Path, name: str, num: int, out: Path, udev: dict[str, str]) -> 
     return evdev_node(load_evdev(data / name).description, num, out, udev)
 
 
-def _run_doctor(
+def _run_controller(
     tmp: Path,
     nodes: list[Node],
+    doctor_args: tuple[str, ...],
     *,
     busy: tuple[Node, ...] = (),
     deny: tuple[str, ...] = (),
-    args: tuple[str, ...] = (),
+    spec_name: str = "spec.json",
 ) -> dict[str, Any]:
+    """Run `stiction doctor *doctor_args` under the umockdev controller; its JSON result."""
     spec = {
         "devices": [str(n.umockdev) for n in nodes],
         "ioctl": {n.dev: str(n.ioctl) for n in nodes if n not in busy},
         "busy": {n.dev: str(n.ioctl) for n in busy},
         "deny": list(deny),
-        "argv": [*_as_user(), sys.executable, "-m", "stiction", "doctor", "--json", *args],
+        "argv": [*_as_user(), sys.executable, "-m", "stiction", "doctor", *doctor_args],
     }
-    spec_path = tmp / "spec.json"
+    spec_path = tmp / spec_name
     spec_path.write_text(json.dumps(spec))
     # XDG_CONFIG_HOME in tmp: a config of the machine's user must not change the result
     env = dict(os.environ, XDG_CONFIG_HOME=str(tmp / "config"))
@@ -97,6 +99,18 @@ def _run_doctor(
     )
     assert proc.returncode == 0, proc.stderr
     result: dict[str, Any] = json.loads(proc.stdout)
+    return result
+
+
+def _run_doctor(
+    tmp: Path,
+    nodes: list[Node],
+    *,
+    busy: tuple[Node, ...] = (),
+    deny: tuple[str, ...] = (),
+    args: tuple[str, ...] = (),
+) -> dict[str, Any]:
+    result = _run_controller(tmp, nodes, ("--json", *args), busy=busy, deny=deny)
     assert result["stdout"].strip(), result["stderr"]
     result["report"] = json.loads(result["stdout"])
     return result
@@ -227,26 +241,7 @@ def test_human_output_names_problem_and_fix(tmp_path: Path, evdev_data: Path) ->
 
 
 def _run_doctor_text(tmp: Path, nodes: list[Node], deny: tuple[str, ...]) -> str:
-    spec = {
-        "devices": [str(n.umockdev) for n in nodes],
-        "ioctl": {n.dev: str(n.ioctl) for n in nodes},
-        "deny": list(deny),
-        "argv": [*_as_user(), sys.executable, "-m", "stiction", "doctor"],
-    }
-    spec_path = tmp / "spec-text.json"
-    spec_path.write_text(json.dumps(spec))
-    env = dict(os.environ, XDG_CONFIG_HOME=str(tmp / "config"))
-    proc = subprocess.run(
-        [SYSTEM_PY, str(CONTROLLER), str(spec_path)],
-        capture_output=True,
-        text=True,
-        timeout=90,
-        check=False,
-        cwd=REPO,
-        env=env,
-    )
-    assert proc.returncode == 0, proc.stderr
-    out: str = json.loads(proc.stdout)["stdout"]
+    out: str = _run_controller(tmp, nodes, (), deny=deny, spec_name="spec-text.json")["stdout"]
     return out
 
 
