@@ -40,8 +40,9 @@ def _umockdev_run() -> str:
     return exe
 
 
-def _run(tmp: Path, files, wanted: int, *extra: str) -> list[dict]:  # type: ignore[no-untyped-def]
-    cmd = [
+def _under_umockdev(files, *argv: str) -> list[str]:  # type: ignore[no-untyped-def]
+    """The command running `argv` under umockdev-run with the mocked node of `files`."""
+    return [
         _umockdev_run(),
         "--device",
         str(files.device),
@@ -50,12 +51,12 @@ def _run(tmp: Path, files, wanted: int, *extra: str) -> list[dict]:  # type: ign
         "--script",
         f"{files.dev_node}={files.script}",
         "--",
-        sys.executable,
-        str(HELPER),
-        files.dev_node,
-        str(wanted),
-        *extra,
+        *argv,
     ]
+
+
+def _run(tmp: Path, files, wanted: int, *extra: str) -> list[dict]:  # type: ignore[no-untyped-def]
+    cmd = _under_umockdev(files, sys.executable, str(HELPER), files.dev_node, str(wanted), *extra)
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=tmp)
     assert proc.returncode == 0, proc.stderr
     return [json.loads(line) for line in proc.stdout.splitlines() if line.startswith("{")]
@@ -239,24 +240,8 @@ def test_record_writes_what_the_device_sent(tmp_path: Path, hid_data: Path) -> N
     rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
     reports = [ev.data for ev in rec.events[:120]]
     files = write_mock(tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports)
-    cmd = [
-        _umockdev_run(),
-        "--device",
-        str(files.device),
-        "--ioctl",
-        f"{files.dev_node}={files.ioctl}",
-        "--script",
-        f"{files.dev_node}={files.script}",
-        "--",
-        sys.executable,
-        "-m",
-        "stiction",
-        "hid",
-        "record",
-        files.dev_node,
-        "--count",
-        str(len(reports)),
-    ]
+    argv = (sys.executable, "-m", "stiction", "hid", "record", files.dev_node)
+    cmd = _under_umockdev(files, *argv, "--count", str(len(reports)))
     proc = subprocess.run(cmd, capture_output=True, text=True, timeout=60, cwd=tmp_path)
     assert proc.returncode == 0, proc.stderr
     back = parse_recording(proc.stdout, "recorded")
