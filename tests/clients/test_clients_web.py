@@ -61,6 +61,45 @@ class WebServer:
         self.thread.join(30)
 
 
+@contextlib.contextmanager
+def web_page(
+    browser: Any, pub: str, ctl: str | None, width: int, height: int
+) -> Iterator[tuple[WebServer, Any]]:
+    """A `WebServer` on pub/ctl and a browser page of that viewport showing it."""
+    web = WebServer(pub, ctl)
+    try:
+        page = browser.new_page(viewport={"width": width, "height": height})
+        try:
+            page.goto(web.url)
+            yield web, page
+        finally:
+            page.close()
+    finally:
+        web.stop()
+
+
+@contextlib.contextmanager
+def replaying(rec: recording.Recording, pub: str, ctl: str, **run: Any) -> Iterator[None]:
+    """Replay `rec` on pub/ctl from a thread once a page subscribes, with
+    `Replayer.run(**run)`, then keep its endpoints up until the block ends."""
+    player = Replayer(rec, pub, ctl)
+    done = threading.Event()
+
+    def play() -> None:
+        if player.wait_for_subscriber(30):
+            player.run(**run)
+        player.hold(done.is_set, 120)
+
+    t = threading.Thread(target=play, daemon=True)
+    t.start()
+    try:
+        yield
+    finally:
+        done.set()
+        t.join(30)
+        player.close()
+
+
 def stroke_frames() -> list[dict[str, Any]]:
     """Slip from x=40 to 98, then stick at 100 while the touch runs on to 218."""
     frames = []
@@ -128,20 +167,7 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
     frames = write_recording(short_dir / "stroke.npz")
     rec = recording.read(short_dir / "stroke.npz")
     pub, ctl = f"ipc://{short_dir}/pub", f"ipc://{short_dir}/ctl"
-    player = Replayer(rec, pub, ctl)
-    done = threading.Event()
-
-    def play() -> None:
-        if player.wait_for_subscriber(30):
-            player.run(speed=4.0)
-        player.hold(done.is_set, 120)
-
-    t = threading.Thread(target=play, daemon=True)
-    t.start()
-    web = WebServer(pub, ctl)
-    page = browser.new_page(viewport={"width": 800, "height": 600})
-    try:
-        page.goto(web.url)
+    with replaying(rec, pub, ctl, speed=4.0), web_page(browser, pub, ctl, 800, 600) as (_, page):
         last = frames[-1]["tick"]
         page.wait_for_function(
             f"window.stiction && window.stiction.drawnTick === {last}", timeout=30_000
@@ -176,21 +202,13 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
         page.wait_for_function("window.stiction.status === 'gone'", timeout=30_000)
         assert page.is_visible("#banner")
         assert "is stictiond running?" in page.inner_text("#banner")
-    finally:
-        page.close()
-        web.stop()
-        done.set()
-        t.join(30)
-        player.close()
 
 
 def test_bridge_survives_bad_frames_and_reports_a_newer_schema(
     browser: Any, daemon: FakeDaemon
 ) -> None:
-    web = WebServer(daemon.pub_endpoint, daemon.control_endpoint)
-    page = browser.new_page(viewport={"width": 800, "height": 600})
-    try:
-        page.goto(web.url)
+    pub, ctl = daemon.pub_endpoint, daemon.control_endpoint
+    with web_page(browser, pub, ctl, 800, 600) as (web, page):
         daemon.wait_subscribers(2)
         page.wait_for_function("window.stiction.scene !== null", timeout=30_000)  # from snapshot
         daemon.send_raw(b"frame.pen", b"\xc1 not msgpack")
@@ -205,9 +223,6 @@ def test_bridge_survives_bad_frames_and_reports_a_newer_schema(
         assert is_black(px)
         st = web.status()
         assert st["errors"] >= 2 and st["frames"] == 1 and st["pages"] == 1
-    finally:
-        page.close()
-        web.stop()
 
 
 def test_real_daemon_stroke_replayed_is_drawn_where_its_frames_say(
@@ -240,20 +255,10 @@ def test_real_daemon_stroke_replayed_is_drawn_where_its_frames_say(
     recording.write(short_dir / "real.npz", messages, typed, {"scene": scene})
     rec = recording.read(short_dir / "real.npz")
     rpub, rctl = f"ipc://{short_dir}/rp", f"ipc://{short_dir}/rc"
-    player = Replayer(rec, rpub, rctl)
-    done = threading.Event()
-
-    def play() -> None:
-        if player.wait_for_subscriber(30):
-            player.run(fast=True)
-        player.hold(done.is_set, 120)
-
-    t = threading.Thread(target=play, daemon=True)
-    t.start()
-    web = WebServer(rpub, rctl)
-    page = browser.new_page(viewport={"width": 1000, "height": 640})
-    try:
-        page.goto(web.url)
+    with (
+        replaying(rec, rpub, rctl, fast=True),
+        web_page(browser, rpub, rctl, 1000, 640) as (_, page),
+    ):
         last = typed[-1]
         page.wait_for_function(f"window.stiction.drawnTick === {last.tick}", timeout=30_000)
         c = stuck[0]
@@ -266,12 +271,6 @@ def test_real_daemon_stroke_replayed_is_drawn_where_its_frames_say(
         assert got["size"] == scene["display"]
         assert is_black(got["px"][0]), got
         assert is_string(got["px"][1]), got
-    finally:
-        page.close()
-        web.stop()
-        done.set()
-        t.join(30)
-        player.close()
 
 
 def recording_scene(messages: list[tuple[bytes, bytes, float]]) -> Iterator[dict[str, Any]]:
