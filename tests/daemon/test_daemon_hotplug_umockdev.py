@@ -13,7 +13,6 @@ monitor, not through anything the test calls.
 from __future__ import annotations
 
 import json
-import subprocess
 import sys
 import textwrap
 from pathlib import Path
@@ -23,7 +22,7 @@ import pytest
 EVDEV_TESTS = Path(__file__).resolve().parents[1] / "evdev"
 sys.path.insert(0, str(EVDEV_TESTS))
 
-from evdev_mockfiles import run_controller, write  # noqa: E402
+from evdev_mockfiles import gi_available, run_controller, write_replug_pair  # noqa: E402
 
 from stiction.drivers.evdev.playback import ReplaySource  # noqa: E402
 from stiction.drivers.evdev.recording import load  # noqa: E402
@@ -74,27 +73,14 @@ READER = textwrap.dedent(
 )
 
 
-def _gi_available() -> bool:
-    import shutil
-
-    if not Path("/usr/bin/python3").exists() or shutil.which("umockdev-wrapper") is None:
-        return False
-    probe = "import gi; gi.require_version('UMockdev', '1.0'); from gi.repository import UMockdev"
-    r = subprocess.run(["/usr/bin/python3", "-c", probe], capture_output=True, check=False)
-    return r.returncode == 0
-
-
 @pytest.mark.umockdev
-@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+@pytest.mark.skipif(not gi_available(), reason="needs system python3 with gi + UMockdev typelib")
 def test_unplugged_tablet_ends_its_contact_and_is_reopened_on_udev_add(
     evdev_data: Path, tmp_path: Path
 ) -> None:
     name = "wacom-cintiq-13hd-touch-pen.evemu"
     rec = load(evdev_data / name)
-    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
-    rec.events = rec.events[: syn[39] + 1]  # 40 frames, the pen still in range
-    write(rec, tmp_path, num=5, udev={"ID_INPUT_TABLET": "1"})
-    write(rec, tmp_path, num=6, udev={"ID_INPUT_TABLET": "1"})
+    write_replug_pair(rec, tmp_path, 40, {"ID_INPUT_TABLET": "1"})  # the pen still in range at 40
     # The live driver reads one sample per frame; the replay adds an end-of-stream one.
     expected = sum(1 for _ in ReplaySource(rec).samples()) - 1
     assert expected == 40

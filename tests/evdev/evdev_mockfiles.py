@@ -45,6 +45,15 @@ def umockdev_available() -> bool:
     return shutil.which("umockdev-run") is not None
 
 
+def gi_available() -> bool:
+    """Whether `run_controller` can run: system python3 with gi and the UMockdev typelib."""
+    if not Path("/usr/bin/python3").exists() or shutil.which("umockdev-wrapper") is None:
+        return False
+    probe = "import gi; gi.require_version('UMockdev', '1.0'); from gi.repository import UMockdev"
+    r = subprocess.run(["/usr/bin/python3", "-c", probe], capture_output=True, check=False)
+    return r.returncode == 0
+
+
 def _mask_bytes(bits: frozenset[int] | set[int], size: int) -> bytes:
     out = bytearray(size)
     for b in bits:
@@ -163,6 +172,15 @@ def write(rec: Recording, out: Path, num: int = 5, udev: dict[str, str] | None =
     files.ioctl.write_text(ioctl_text(rec.description, node))
     files.events.write_text(write_events(rec.events))
     return files
+
+
+def write_replug_pair(rec: Recording, out: Path, frames: int, udev: dict[str, str]) -> None:
+    """Cut `rec` (in place) to its first `frames` frames and write it as event5, the
+    node `run_controller` unplugs, and as event6, the node it plugs back in."""
+    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
+    rec.events = rec.events[: syn[frames - 1] + 1]
+    write(rec, out, num=5, udev=udev)
+    write(rec, out, num=6, udev=udev)
 
 
 def run_under_umockdev(

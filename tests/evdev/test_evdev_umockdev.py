@@ -16,11 +16,13 @@ from pathlib import Path
 
 import pytest
 from evdev_mockfiles import (
+    gi_available,
     run_controller,
     run_under_umockdev,
     stiction_cmd,
     umockdev_available,
     write,
+    write_replug_pair,
 )
 
 from stiction.drivers.evdev import replay, sizes
@@ -235,18 +237,7 @@ UNPLUG_READER = textwrap.dedent(
 )
 
 
-def _gi_available() -> bool:
-    import shutil
-    import subprocess
-
-    if not Path("/usr/bin/python3").exists() or shutil.which("umockdev-wrapper") is None:
-        return False
-    probe = "import gi; gi.require_version('UMockdev', '1.0'); from gi.repository import UMockdev"
-    r = subprocess.run(["/usr/bin/python3", "-c", probe], capture_output=True, check=False)
-    return r.returncode == 0
-
-
-@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+@pytest.mark.skipif(not gi_available(), reason="needs system python3 with gi + UMockdev typelib")
 def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
     evdev_data: Path, tmp_path: Path
 ) -> None:
@@ -254,10 +245,7 @@ def test_unplug_ends_contacts_reports_error_and_device_can_be_reopened(
     name = "wacom-cintiq-13hd-touch-pen.evemu"
     rec = load(evdev_data / name)
     # the stream stops after 40 frames with the pen in range; then the device goes away
-    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
-    rec.events = rec.events[: syn[39] + 1]
-    write(rec, tmp_path, num=5, udev={"ID_INPUT_TABLET": "1"})
-    write(rec, tmp_path, num=6, udev={"ID_INPUT_TABLET": "1"})
+    write_replug_pair(rec, tmp_path, 40, {"ID_INPUT_TABLET": "1"})
     out = run_controller(tmp_path, UNPLUG_READER, "40")
     lines = out["reader"]
     assert lines[0] == "ready", out
@@ -293,7 +281,7 @@ CRASH_READER = textwrap.dedent(
 )
 
 
-@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+@pytest.mark.skipif(not gi_available(), reason="needs system python3 with gi + UMockdev typelib")
 def test_grab_is_released_when_the_consumer_crashes(evdev_data: Path, tmp_path: Path) -> None:
 
     write(load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu"), tmp_path, num=5)
@@ -327,7 +315,7 @@ def test_record_a_live_device_and_decode_it_again(
     assert rec.events == load(evdev_data / name).events
 
 
-@pytest.mark.skipif(not _gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+@pytest.mark.skipif(not gi_available(), reason="needs system python3 with gi + UMockdev typelib")
 def test_syn_dropped_on_a_live_device_resyncs_from_the_kernel_state(
     evdev_data: Path, tmp_path: Path
 ) -> None:
