@@ -59,6 +59,20 @@ def load_table(path: str) -> dict[int, tuple[int, bytes]]:
     return table
 
 
+def answer_from_table(  # type: ignore[no-untyped-def]
+    table: dict[int, tuple[int, bytes]], req: int, client
+) -> bool:
+    """Answer ioctl `req` as the .ioctl table says, EINVAL if it has no entry."""
+    hit = table.get(req)
+    if hit is None:
+        client.complete(-1, errno.EINVAL)  # e.g. EVIOCSCLOCKID
+        return True
+    ret, buf = hit
+    client.get_arg().resolve(0, len(buf)).update(0, buf)
+    client.complete(ret, 0)
+    return True
+
+
 class Handler(UMockdev.IoctlBase):
     def __init__(self, table: dict[int, tuple[int, bytes]]) -> None:
         super().__init__()
@@ -107,14 +121,7 @@ class Handler(UMockdev.IoctlBase):
                 client.get_arg().resolve(0, len(info)).update(0, info)
                 client.complete(0, 0)
                 return True
-        hit = self.table.get(req)
-        if hit is None:
-            client.complete(-1, errno.EINVAL)  # e.g. EVIOCSCLOCKID
-            return True
-        ret, buf = hit
-        client.get_arg().resolve(0, len(buf)).update(0, buf)
-        client.complete(ret, 0)
-        return True
+        return answer_from_table(self.table, req, client)
 
     def do_handle_read(self, client):  # type: ignore[no-untyped-def]
         if self.unplugged.is_set():

@@ -25,7 +25,6 @@ from __future__ import annotations
 import errno
 import json
 import os
-import re
 import subprocess
 import sys
 
@@ -34,29 +33,9 @@ import gi
 gi.require_version("UMockdev", "1.0")
 from gi.repository import UMockdev  # noqa: E402
 
-_READ = 2
-_NR = {"EVIOCGVERSION": 0x01, "EVIOCGID": 0x02, "EVIOCGNAME": 0x06, "EVIOCGPROP": 0x09}
-_NR |= {"EVIOCGKEY": 0x18, "EVIOCGLED": 0x19, "EVIOCGBIT": 0x20, "EVIOCGABS": 0x40}
-_NR |= {"EVIOCGEFFECTS": 0x84}
-EVIOCGRAB = (1 << 30) | (4 << 16) | (ord("E") << 8) | 0x90
-_LINE = re.compile(r"^(\w+)(?:\((\d+)\))? (-?\d+) ([0-9a-fA-F]*)$")
-
-
-def _ioc(direction: int, nr: int, size: int) -> int:
-    return (direction << 30) | (size << 16) | (ord("E") << 8) | nr
-
-
-def load_table(path: str) -> dict[int, tuple[int, bytes]]:
-    table = {}
-    with open(path) as f:
-        for line in f:
-            m = _LINE.match(line.strip())
-            if not m:
-                continue
-            name, off, ret = m.group(1), int(m.group(2) or 0), int(m.group(3))
-            buf = bytes.fromhex(m.group(4))
-            table[_ioc(_READ, _NR[name] + off, len(buf))] = (ret, buf)
-    return table
+# the .ioctl tables are the evdev tests' own (evdev_mockfiles), read by their controller
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "evdev"))
+from evdev_unplug_controller import EVIOCGRAB, answer_from_table, load_table  # noqa: E402
 
 
 class GrabbedElsewhere(UMockdev.IoctlBase):
@@ -73,14 +52,7 @@ class GrabbedElsewhere(UMockdev.IoctlBase):
             self.grab_attempts += 1
             client.complete(-1, errno.EBUSY)
             return True
-        hit = self.table.get(req)
-        if hit is None:
-            client.complete(-1, errno.EINVAL)  # EVIOCSCLOCKID and the like
-            return True
-        ret, buf = hit
-        client.get_arg().resolve(0, len(buf)).update(0, buf)
-        client.complete(ret, 0)
-        return True
+        return answer_from_table(self.table, req, client)
 
     def do_handle_read(self, client):  # type: ignore[no-untyped-def]
         return False
