@@ -36,9 +36,10 @@ from typing import Any
 from evdev import ecodes
 
 from stiction.drivers.evdev import sizes
+from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
-from stiction.drivers.evdev.source import frame_samples, kind_of, slug
+from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
 from stiction.errors import DeviceError
@@ -150,7 +151,7 @@ def _open(path: str) -> Any:
         raise DeviceError(f"{path} is not an evdev input device (/dev/input/eventN)") from None
 
 
-class DeviceSource:
+class DeviceSource(EvdevSourceBase):
     """SampleSource over one evdev node."""
 
     def __init__(
@@ -199,18 +200,6 @@ class DeviceSource:
 
     # -- SampleSource --------------------------------------------------------
 
-    @property
-    def name(self) -> str:
-        return slug(self.description.name)
-
-    @property
-    def surface_size(self) -> tuple[float, float] | None:
-        return self._units.surface_size
-
-    @property
-    def kind(self) -> str:
-        return kind_of(self.description)
-
     def samples(self) -> Iterator[PenSample]:
         sizes.require(self.description)
         units = self._units
@@ -229,12 +218,6 @@ class DeviceSource:
         with self._lock:
             if not self._reading:
                 self._release()
-
-    def stats(self) -> dict[str, int]:
-        out = dict(self._stats)
-        if self._assembler is not None:
-            out.update(self._assembler.stats)
-        return out
 
     # -- reading -------------------------------------------------------------
 

@@ -15,16 +15,17 @@ from collections.abc import Callable, Iterator
 from pathlib import Path
 
 from stiction.drivers.evdev import sizes
+from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.frames import Frame, FrameAssembler
 from stiction.drivers.evdev.recording import Recording, load
-from stiction.drivers.evdev.source import frame_samples, kind_of, slug
+from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
 
 _CHUNK = 4096  # events framed at a time
 
 
-class ReplaySource:
+class ReplaySource(EvdevSourceBase):
     """SampleSource over an evemu or libinput record recording."""
 
     def __init__(
@@ -47,18 +48,6 @@ class ReplaySource:
         self._wait = wait if wait is not None else self._closed.wait
         self._stats: Counter[str] = Counter()
         self._assembler: FrameAssembler | None = None
-
-    @property
-    def name(self) -> str:
-        return slug(self.description.name)
-
-    @property
-    def surface_size(self) -> tuple[float, float] | None:
-        return self._units.surface_size
-
-    @property
-    def kind(self) -> str:
-        return kind_of(self.description)
 
     def _frames(self, asm: FrameAssembler) -> Iterator[Frame]:
         """Frames in chunks of events: bounded memory for long recordings."""
@@ -93,12 +82,6 @@ class ReplaySource:
 
     def close(self) -> None:
         self._closed.set()
-
-    def stats(self) -> dict[str, int]:
-        out = dict(self._stats)
-        if self._assembler is not None:
-            out.update(self._assembler.stats)
-        return out
 
 
 def open_replay(
