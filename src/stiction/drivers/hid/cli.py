@@ -178,6 +178,15 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
+def _add_size_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--size",
+        type=_size,
+        metavar="WxH",
+        help="active area in mm when the descriptor and device table lack it",
+    )
+
+
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     hid = sub.add_parser("hid", help="inspect HID report descriptors and recordings")
     hsub = hid.add_subparsers(dest="hid_command", metavar="SUBCOMMAND", required=True)
@@ -188,23 +197,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e = hsub.add_parser("decode", help="decode every recorded report of a .hid file")
     e.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")
     e.add_argument("--json", action="store_true", help="one JSON object per report")
-    e.add_argument(
-        "--size",
-        type=_size,
-        metavar="WxH",
-        help="active area in mm when the descriptor and device table lack it",
-    )
+    _add_size_option(e)
     e.set_defaults(func=_decode)
     r = hsub.add_parser("read", help="print the pen/touch samples of a live hidraw device")
     r.add_argument("device", help="/dev/hidrawN, or vid:pid (e.g. 28bd:0907)")
     r.add_argument("--json", action="store_true", help="one JSON object per sample")
     r.add_argument("--count", type=int, default=0, help="stop after N samples")
-    r.add_argument(
-        "--size",
-        type=_size,
-        metavar="WxH",
-        help="active area in mm when the descriptor and device table lack it",
-    )
+    _add_size_option(r)
     r.set_defaults(func=_read)
     rec = hsub.add_parser(
         "record",
