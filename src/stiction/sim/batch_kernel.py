@@ -25,14 +25,13 @@ import numpy.typing as npt
 from numba.extending import register_jitable  # type: ignore[import-untyped]
 
 from stiction.sim import kernels
-from stiction.sim.kernels import EXP_CUTOFF, ROUND_OFF, TINY
+from stiction.sim.kernels import ROUND_OFF, V_REST
 
 _Fn = TypeVar("_Fn", bound=Callable[..., Any])
 
 STICK, MOVING, RESTING, HOVER, UP = 0, 1, 2, 3, 4
 PX, PY, VX, VY, UX, UY, DX, DY, UDX, UDY = range(10)
 FS2, FK = 11, 12
-V_REST = 1e-12
 _MAX_ZERO_EVENTS = 16
 INF = math.inf
 
@@ -43,24 +42,6 @@ def _jit(fn: _Fn) -> _Fn:
 
 def _jit_inline(fn: _Fn) -> _Fn:
     return cast(_Fn, numba.njit(cache=True, nogil=True, inline="always")(fn))
-
-
-@_jit_inline
-def _prop(w: float, h: float, out: npt.NDArray[np.float64]) -> None:
-    """kernels.propagator into out[0:4]."""
-    wh = w * h
-    if wh > EXP_CUTOFF:
-        out[0] = out[1] = out[2] = out[3] = 0.0
-        return
-    e = math.exp(-wh)
-    c0 = e * (1.0 + wh)
-    c1 = e * h
-    c2 = -e * w * w * h
-    c3 = e * (1.0 - wh)
-    out[0] = c0 if abs(c0) >= TINY else 0.0
-    out[1] = c1 if abs(c1) >= TINY else 0.0
-    out[2] = c2 if abs(c2) >= TINY else 0.0
-    out[3] = c3 if abs(c3) >= TINY else 0.0
 
 
 @_jit_inline
@@ -78,6 +59,8 @@ def _hypot(x: float, y: float) -> float:
 register_jitable(kernels._f)
 register_jitable(kernels._polish)
 _band = _jit(kernels.band)
+_propagator = _jit_inline(kernels.propagator)
+_gains_energy = _jit_inline(kernels.gains_energy)
 _first_exit = _jit(kernels.first_exit)
 _first_entry = _jit(kernels.first_entry)
 _rest_time = _jit(kernels.rest_time)
@@ -111,27 +94,6 @@ def _rest_decide(
 
 
 @_jit_inline
-def _gains_energy(
-    S: npt.NDArray[np.float64],
-    i: int,
-    px: float,
-    py: float,
-    vx: float,
-    vy: float,
-    k: float,
-    m: float,
-) -> bool:
-    ux, uy, p0x, p0y = S[UX, i], S[UY, i], S[PX, i], S[PY, i]
-    sx0, sy0 = ux - p0x, uy - p0y
-    sx1, sy1 = ux - px, uy - py
-    s02 = sx0 * sx0 + sy0 * sy0
-    e0 = m * (S[VX, i] * S[VX, i] + S[VY, i] * S[VY, i]) + k * s02
-    e1 = m * (vx * vx + vy * vy) + k * (sx1 * sx1 + sy1 * sy1)
-    d = ROUND_OFF * (abs(ux) + abs(uy) + abs(p0x) + abs(p0y))
-    return bool(e1 > e0 * (1.0 + 1e-12) + 2.0 * k * d * (2.0 * math.sqrt(s02) + d))
-
-
-@_jit_inline
 def _piece_exact(
     S: npt.NDArray[np.float64],
     i: int,
@@ -142,7 +104,6 @@ def _piece_exact(
     k: float,
     m: float,
     w: float,
-    tmp: npt.NDArray[np.float64],
 ) -> tuple[float, bool]:
     """ContactSim._piece_exact (events on) for column i; cf = (c11, c12, c21, c22, m21, m22)."""
     c11, c12, c21, c22, m21, m22 = cf[0], cf[1], cf[2], cf[3], cf[4], cf[5]
@@ -184,7 +145,9 @@ def _piece_exact(
         uy = S[UY, i] + udy * h
         px = ux - q * dx + c11 * y0x + c12 * ydx
         py = uy - q * dy + c11 * y0y + c12 * ydy
-        if held and _gains_energy(S, i, px, py, vnx, vny, k, m):
+        if held and _gains_energy(
+            S[UX, i], S[UY, i], S[PX, i], S[PY, i], vx, vy, px, py, vnx, vny, k, m
+        ):
             S[VX, i] = 0.0
             S[VY, i] = 0.0
             return 0.0, True
@@ -205,15 +168,16 @@ def _piece_exact(
     if tau == h:
         e11, e12 = c11, c12
     elif tau > 0.0:
-        _prop(w, tau, tmp)
-        e11, e12 = tmp[0], tmp[1]
+        e11, e12, _, _ = _propagator(w, tau)
     else:
         e11, e12 = 1.0, 0.0
     ux = S[UX, i] + udx * tau
     uy = S[UY, i] + udy * tau
     px = ux - q * dx + e11 * y0x + e12 * ydx
     py = uy - q * dy + e11 * y0y + e12 * ydy
-    if held and _gains_energy(S, i, px, py, 0.0, 0.0, k, m):
+    if held and _gains_energy(
+        S[UX, i], S[UY, i], S[PX, i], S[PY, i], vx, vy, px, py, 0.0, 0.0, k, m
+    ):
         S[VX, i] = 0.0
         S[VY, i] = 0.0
         return 0.0, True
@@ -242,7 +206,6 @@ def _segment(
     c0: npt.NDArray[np.float64],
     max_pieces: int,
     cf: npt.NDArray[np.float64],
-    tmp: npt.NDArray[np.float64],
 ) -> tuple[int, int, int]:
     """ContactSim._run over h with the touch moving in a straight line to u1.
 
@@ -321,14 +284,11 @@ def _segment(
             if abs(piece - hmax) <= 1e-12 * hmax:
                 coef = c0
             else:
-                _prop(w, 0.5 * piece, tmp)
-                cf[4] = tmp[2]
-                cf[5] = tmp[3]
-                _prop(w, piece, tmp)
-                for j in range(4):
-                    cf[j] = tmp[j]
+                half = _propagator(w, 0.5 * piece)
+                cf[0], cf[1], cf[2], cf[3] = _propagator(w, piece)
+                cf[4], cf[5] = half[2], half[3]
                 coef = cf
-            consumed, event = _piece_exact(S, i, piece, udx, udy, coef, k, m, w, tmp)
+            consumed, event = _piece_exact(S, i, piece, udx, udy, coef, k, m, w)
             left -= consumed
             if event:
                 md = _rest_decide(S, i, udx, udy, False, k, c)
@@ -372,7 +332,6 @@ def advance_exact(
     truncated = 0
     overflows = 0
     cf = np.empty(6)
-    tmp = np.empty(4)
     for i in range(S.shape[1]):
         x = xs[i]
         y = ys[i]
@@ -410,7 +369,7 @@ def advance_exact(
                     S[UX, i] = u1x
                     S[UY, i] = u1y
                     continue
-            md, tr, ov = _segment(S, i, md, u1x, u1y, h, k, m, c, w, hmax, c0, max_pieces, cf, tmp)
+            md, tr, ov = _segment(S, i, md, u1x, u1y, h, k, m, c, w, hmax, c0, max_pieces, cf)
             truncated += tr
             overflows += ov
             mode[i] = md

@@ -26,11 +26,7 @@ from stiction.sim.state import ContactState, Phase
 STICK, MOVING, RESTING, HOVER, UP = 0, 1, 2, 3, 4
 _PHASE: tuple[Phase, ...] = ("stick", "slip", "slip", "hover", "up")
 
-V_REST = 1e-12
-"""m/s. With the touch held still a critically damped pen approaches its rest
-point exponentially and never reaches v = 0 exactly; below this speed (a pixel
-every few years) it counts as having come to rest. Without it a long still
-hold would creep into denormal numbers."""
+V_REST = kernels.V_REST
 
 _MAX_ZERO_EVENTS = 16
 MIN_SEGMENT = 1e-9
@@ -405,7 +401,24 @@ class ContactSim:
             uy = self._uy + udy * h
             px = ux - q * dx + c11 * y0x + c12 * ydx
             py = uy - q * dy + c11 * y0y + c12 * ydy
-            if udx == 0.0 and udy == 0.0 and self._gains_energy(px, py, vnx, vny):
+            if (
+                udx == 0.0
+                and udy == 0.0
+                and kernels.gains_energy(
+                    self._ux,
+                    self._uy,
+                    self._px,
+                    self._py,
+                    self._vx,
+                    self._vy,
+                    px,
+                    py,
+                    vnx,
+                    vny,
+                    self._k,
+                    self._m,
+                )
+            ):
                 # Touch held: the true motion only loses energy. In 2-D with
                 # friction close to the spring force the frozen direction can
                 # do a little positive work; there the pen is all but stopped,
@@ -430,24 +443,30 @@ class ContactSim:
         uy = self._uy + udy * tau
         px = ux - q * dx + e11 * y0x + e12 * ydx
         py = uy - q * dy + e11 * y0y + e12 * ydy
-        if udx == 0.0 and udy == 0.0 and self._gains_energy(px, py, 0.0, 0.0):
+        if (
+            udx == 0.0
+            and udy == 0.0
+            and kernels.gains_energy(
+                self._ux,
+                self._uy,
+                self._px,
+                self._py,
+                self._vx,
+                self._vy,
+                px,
+                py,
+                0.0,
+                0.0,
+                self._k,
+                self._m,
+            )
+        ):
             self._vx = self._vy = 0.0  # as above: at rest where it is
             return 0.0, True
         self._px, self._py = px, py
         self._ux, self._uy = ux, uy
         self._vx = self._vy = 0.0
         return tau, True
-
-    def _gains_energy(self, px: float, py: float, vx: float, vy: float) -> bool:
-        """Would moving to (p, v) raise 0.5 m v^2 + 0.5 k s^2 (touch held still)?"""
-        sx0, sy0 = self._ux - self._px, self._uy - self._py
-        sx1, sy1 = self._ux - px, self._uy - py
-        m, k = self._m, self._k
-        s02 = sx0 * sx0 + sy0 * sy0
-        e0 = m * (self._vx * self._vx + self._vy * self._vy) + k * s02
-        e1 = m * (vx * vx + vy * vy) + k * (sx1 * sx1 + sy1 * sy1)
-        d = self._delta()  # the stretch is a difference of absolute coordinates
-        return e1 > e0 * (1.0 + 1e-12) + 2.0 * k * d * (2.0 * math.sqrt(s02) + d)
 
     def _accel(
         self,

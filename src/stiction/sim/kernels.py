@@ -44,6 +44,13 @@ def propagator(w: float, h: float) -> Coeffs:
     )
 
 
+V_REST = 1e-12
+"""m/s. With the touch held still a critically damped pen approaches its rest
+point exponentially and never reaches v = 0 exactly; below this speed (a pixel
+every few years) it counts as having come to rest. Without it a long still
+hold would creep into denormal numbers."""
+
+
 BOUNDARY = 1e-12
 """Relative band around a crossing radius counted as "on the boundary". There the
 direction of motion decides: a stretch exactly at F_s/k moving outward has just
@@ -58,6 +65,31 @@ ROUND_OFF = 1e-15
 def band(r2: float, delta: float) -> float:
     """Half-width of the boundary band of |a|^2 = r2 when |a| carries an error delta."""
     return BOUNDARY * r2 + delta * (2.0 * math.sqrt(r2) + delta)
+
+
+def gains_energy(
+    ux: float,
+    uy: float,
+    p0x: float,
+    p0y: float,
+    v0x: float,
+    v0y: float,
+    px: float,
+    py: float,
+    vx: float,
+    vy: float,
+    k: float,
+    m: float,
+) -> bool:
+    """Would moving from (p0, v0) to (p, v) raise 0.5 m v^2 + 0.5 k s^2 (touch held at u)?"""
+    sx0, sy0 = ux - p0x, uy - p0y
+    sx1, sy1 = ux - px, uy - py
+    s02 = sx0 * sx0 + sy0 * sy0
+    e0 = m * (v0x * v0x + v0y * v0y) + k * s02
+    e1 = m * (vx * vx + vy * vy) + k * (sx1 * sx1 + sy1 * sy1)
+    # The stretch is a difference of absolute coordinates.
+    d = ROUND_OFF * (abs(ux) + abs(uy) + abs(p0x) + abs(p0y))
+    return e1 > e0 * (1.0 + 1e-12) + 2.0 * k * d * (2.0 * math.sqrt(s02) + d)
 
 
 def first_exit(
