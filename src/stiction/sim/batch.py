@@ -94,6 +94,14 @@ def _warm_allocator() -> None:
         _WARMED = True
 
 
+def _motion(s: F) -> tuple[F, F, F]:
+    """|v|^2 and the direction of motion of every column: v/|v|, or the stored one at rest."""
+    vx, vy = s[VX], s[VY]
+    sp = np.hypot(vx, vy)
+    has_v = sp > 0.0
+    return vx * vx + vy * vy, np.where(has_v, vx / sp, s[DX]), np.where(has_v, vy / sp, s[DY])
+
+
 class BatchSim:
     """n contacts advanced together; ``state(i)`` equals ContactSim's to 1e-12 m."""
 
@@ -500,11 +508,7 @@ class BatchSim:
         w = self._w
         vx, vy = s[VX], s[VY]
         udx, udy = s[UDX], s[UDY]
-        sp2 = vx * vx + vy * vy
-        sp = np.hypot(vx, vy)
-        has_v = sp > 0.0
-        d0x = np.where(has_v, vx / sp, s[DX])
-        d0y = np.where(has_v, vy / sp, s[DY])
+        sp2, d0x, d0y = _motion(s)
         q = s[FK] / self._k
         ex = s[PX] - s[UX]
         ey = s[PY] - s[UY]
@@ -584,11 +588,7 @@ class BatchSim:
     def _piece_explicit(self, s: F, h: Any) -> Piece:
         k, c, m = self._k, self._c, self._m
         vx, vy = s[VX], s[VY]
-        sp2 = vx * vx + vy * vy
-        sp = np.hypot(vx, vy)
-        has_v = sp > 0.0
-        dx = np.where(has_v, vx / sp, s[DX])
-        dy = np.where(has_v, vy / sp, s[DY])
+        sp2, dx, dy = _motion(s)
         fk = s[FK]
         ax = (k * (s[UX] - s[PX]) + c * (s[UDX] - vx) - fk * dx) / m
         ay = (k * (s[UY] - s[PY]) + c * (s[UDY] - vy) - fk * dy) / m
