@@ -4,8 +4,9 @@ PYTHON ?= python3
 VENV ?= .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed-stamp
-# System packages the tests and the demo need (Debian names).
-SYSPKGS := umockdev gir1.2-umockdev-1.0 python3-gi chromium nodejs
+# System packages the tests and the demo need (Debian names): udev for udevadm
+# (the real-udev rules test), libusb-1.0-0 for pyusb (Huion vendor init).
+SYSPKGS := umockdev gir1.2-umockdev-1.0 python3-gi chromium nodejs udev libusb-1.0-0
 PYTEST_ARGS ?=
 
 .PHONY: test demo sysdeps venv lint typecheck pytest bench node-deps clean
