@@ -176,3 +176,48 @@ def test_a_family_entry_without_its_ranges_is_refused(extra: str, message: str) 
     text = f'[[device]]\nid = "056a:0099"\nsource = "test"\n{extra}\n'
     with pytest.raises(DeviceError, match=message):
         parse_table(text, "t.toml")
+
+
+def test_ptu_layout_pen_and_eraser() -> None:
+    read = _read("wacom-ptu", Geometry(20480, 15360, 511, 204.8, 153.6))
+    pen = read(bytes([2, 0x20 | 0x01 | 0x10, 0x00, 0x10, 0x00, 0x08, 0xFF, 0x01]))
+    assert pen == PenState(0x1000, 0x0800, 0x1FF, True, True, False, True, False)
+    eraser = read(bytes([2, 0x20 | 0x04 | 0x08, 1, 0, 1, 0, 5, 0]))
+    assert eraser is not None and eraser.eraser and eraser.tip
+    assert not read(bytes([2, 0, 1, 0, 1, 0, 0, 0])).in_range  # type: ignore[union-attr]
+
+
+def _pl_report(x: int, y: int, p: int, b4: int = 0) -> bytes:
+    raw = p & 0x1FF  # 9-bit two's complement: byte 7 holds bits 1-8, byte 4 bit 2 bit 0
+    return bytes(
+        [
+            2,
+            0x40 | ((x >> 14) & 3),
+            (x >> 7) & 0x7F,
+            x & 0x7F,
+            b4 | ((y >> 14) & 3) | ((raw & 1) << 2),
+            (y >> 7) & 0x7F,
+            y & 0x7F,
+            (raw >> 1) & 0xFF,
+        ]
+    )
+
+
+def test_pl_layout_seven_bit_coordinates_and_centred_pressure() -> None:
+    read = _read("wacom-pl", Geometry(7220, 5780, 255, 361.0, 289.0))
+    s = read(_pl_report(7000, 5000, -100, b4=0x08))
+    assert s is not None and (s.x, s.y) == (7000, 5000)
+    assert s.pressure == 28 and s.tip and not s.eraser
+    held = read(_pl_report(7000, 5000, 0, b4=0x20))  # pen already chosen: button 2 held
+    assert held is not None and held.barrel2 and not held.eraser
+
+
+def test_otd_parsers_map_to_families_with_the_kernels_exceptions() -> None:
+    from stiction.drivers.hid.families import family_for
+
+    assert family_for("GraphireReportParser", "Wacom CTE-430", 0x056A, 0x13) == "wacom-graphire"
+    assert family_for("IntuosReportParser", "Wacom CTL-480", 0x056A, 0x30E) == "wacom-bpt"
+    assert family_for("IntuosReportParser", "Wacom CTE-460", 0x056A, 0x6A) == "wacom-graphire"
+    assert family_for("IntuosV1ReportParser", "Wacom GD-0608-U", 0x056A, 0x21) == "wacom-intuos1"
+    assert family_for("IntuosV1ReportParser", "Wacom PTH-650", 0x056A, 0x27) == "wacom-intuos"
+    assert family_for("XP_PenReportParser", "XP-Pen Deco 01", 0x28BD, 0x42) is None

@@ -35,6 +35,13 @@ and written here anew):
   on tablets of 1024 levels). The tip is down above a pressure of 10, as the
   kernel decides. ``wacom-intuos1`` is the same protocol on Intuos 1 and 2,
   which count X and Y at half that resolution.
+- ``wacom-ptu`` (PTU-600U): report 2, byte 1 bit 5 in range, bit 2 eraser,
+  the tip in bit 0 (bit 3 for the eraser), buttons in bits 1 and 4; X, Y,
+  pressure little-endian 16-bit at bytes 2-7.
+- ``wacom-pl`` (PL-series pen displays): report 2, X and Y packed seven
+  bits a byte (bytes 1-3 and 4-6), byte 1 bit 6 proximity, pressure a
+  signed value centred on half the range (byte 7 plus low bits of byte 4),
+  tip in byte 4 bit 3.
 """
 
 from __future__ import annotations
@@ -183,6 +190,50 @@ def _intuos(geom: Geometry, half: bool = False) -> Reader:
     return read
 
 
+def _ptu(geom: Geometry) -> Reader:
+    def read(d: bytes) -> PenState | None:
+        if len(d) < 8 or d[0] != 2:
+            return None
+        eraser = bool(d[1] & 0x04)
+        x, y, p = _u16le(d, 2), _u16le(d, 4), _u16le(d, 6)
+        if not d[1] & 0x20:
+            return PenState(x, y, 0, False, False)
+        tip = bool(d[1] & (0x08 if eraser else 0x01))
+        return PenState(x, y, p, tip, True, bool(d[1] & 0x02), bool(d[1] & 0x10), eraser)
+
+    return read
+
+
+def _pl(geom: Geometry) -> Reader:
+    centre = (geom.max_pressure + 1) // 2
+    # The tool is chosen when the pen enters proximity: an eraser always sets
+    # the second button bit, so a pen whose button is held is not one.
+    tool: dict[str, bool | None] = {"eraser": None}
+
+    def read(d: bytes) -> PenState | None:
+        if len(d) < 8 or d[0] & 0x0F != 2:
+            return None
+        x = d[3] | (d[2] << 7) | ((d[1] & 0x03) << 14)
+        y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
+        if not d[1] & 0x40:
+            tool["eraser"] = None
+            return PenState(x, y, 0, False, False)
+        if tool["eraser"] is None:
+            tool["eraser"] = bool(d[0] & 0x10 or d[4] & 0x20)
+        elif tool["eraser"] and not d[4] & 0x20:
+            tool["eraser"] = False
+        eraser = bool(tool["eraser"])
+        p = _s8(((d[7] << 1) | ((d[4] >> 2) & 1)) & 0xFF)
+        if geom.max_pressure > 255:
+            p = (p << 1) | ((d[4] >> 6) & 1)
+        barrel2 = not eraser and bool(d[4] & 0x20)
+        return PenState(
+            x, y, p + centre, bool(d[4] & 0x08), True, bool(d[4] & 0x10), barrel2, eraser
+        )
+
+    return read
+
+
 def _intuos1(geom: Geometry) -> Reader:
     return _intuos(geom, half=True)
 
@@ -193,7 +244,40 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "wacom-bpt": _bpt,
     "wacom-intuos": _intuos,
     "wacom-intuos1": _intuos1,
+    "wacom-ptu": _ptu,
+    "wacom-pl": _pl,
 }
+
+OTD_PARSERS: dict[str, str] = {
+    "GraphireReportParser": "wacom-graphire",
+    "BambooReportParser": "wacom-graphire",
+    "IntuosReportParser": "wacom-bpt",
+    "IntuosV1ReportParser": "wacom-intuos",
+    "Intuos3ReportParser": "wacom-intuos",
+    "Intuos4ReportParser": "wacom-intuos",
+    "PTUReportParser": "wacom-ptu",
+    "PLReportParser": "wacom-pl",
+}
+"""OpenTabletDriver's report parser name -> the family that reads the same protocol.
+
+Checked against the protocol type Linux's wacom_wac.c gives each of those
+products: Graphire and Bamboo parsers cover the GRAPHIRE, G4 and MO types;
+"Intuos" covers Bamboo Pen & Touch and the INTUOSHT types (the BPT packet);
+IntuosV1, Intuos3 and Intuos4 cover the Intuos packet. `family_for` applies
+the two exceptions where one OpenTabletDriver parser spans two protocols.
+"""
+
+
+def family_for(parser: str, name: str, vid: int, pid: int) -> str | None:
+    """The family for an OpenTabletDriver entry, None where none reads its protocol."""
+    family = OTD_PARSERS.get(parser)
+    if family == "wacom-intuos" and name.startswith(("Wacom GD-", "Wacom XD-")):
+        return "wacom-intuos1"  # Intuos 1 and 2 (the kernel's INTUOS type): half resolution
+    if family == "wacom-bpt" and (vid, pid) == (0x056A, 0x006A):
+        return "wacom-graphire"  # Bamboo1 4x6 (CTE-460): GRAPHIRE type in the kernel
+    return family
+
+
 """Family name -> a factory of readers (one per device: some families keep state)."""
 
 
