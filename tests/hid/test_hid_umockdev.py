@@ -73,7 +73,7 @@ def _direct(name: str, descriptor: bytes, vid: int, pid: int, reports: list[byte
     return out
 
 
-@pytest.mark.parametrize("recording", ["xp-pen-artist-10s"])
+@pytest.mark.parametrize("recording", ["xp-pen-artist-10s", "wacom-penpartner"])
 def test_hidraw_backend_reads_recorded_reports(
     tmp_path: Path, hid_data: Path, recording: str
 ) -> None:

@@ -14,6 +14,8 @@ from functools import cache
 from importlib import resources
 from pathlib import Path
 
+from stiction.drivers.hid.families import FAMILIES, Geometry
+from stiction.drivers.hid.families import descriptor as family_descriptor
 from stiction.errors import DeviceError
 
 INIT_KINDS = ("huion-string-descriptor", "feature:", "output:")
@@ -32,6 +34,10 @@ class DeviceEntry:
     usage_aliases: dict[int, int] = field(default_factory=dict)
     descriptor: bytes | None = None
     report_fixup: str | None = None
+    family: str | None = None
+    """A vendor report family (families.py): its reports are read by that family's
+    fix-up into the normalised report that `descriptor` (generated) describes."""
+    geometry: Geometry | None = None
 
 
 def _int(text: str, where: str) -> int:
@@ -89,6 +95,9 @@ def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
             descriptor = bytes.fromhex(desc)
         except ValueError:
             raise DeviceError(f"{where}: 'descriptor' is not hex") from None
+    family, geometry = _family(raw, size_m, where)
+    if geometry is not None:
+        descriptor = family_descriptor(geometry)
     return DeviceEntry(
         vid,
         pid,
@@ -100,7 +109,33 @@ def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
         aliases,
         descriptor,
         report_fixup if isinstance(report_fixup, str) else None,
+        family,
+        geometry,
     )
+
+
+def _family(
+    raw: dict[str, object], size_m: tuple[float, float] | None, where: str
+) -> tuple[str | None, Geometry | None]:
+    """`family` with the ranges its reports do not declare: max_x, max_y, max_pressure, size_mm."""
+    family = raw.get("family")
+    if family is None:
+        return None, None
+    if not isinstance(family, str) or family not in FAMILIES:
+        raise DeviceError(f"{where}: unknown family {family!r}; known: {', '.join(FAMILIES)}")
+    ranges = []
+    for key in ("max_x", "max_y", "max_pressure"):
+        v = raw.get(key)
+        if not isinstance(v, int) or isinstance(v, bool) or not 0 < v < 1 << 31:
+            raise DeviceError(f"{where}: family {family!r} needs '{key}', a positive integer")
+        ranges.append(v)
+    if size_m is None:
+        raise DeviceError(f"{where}: family {family!r} needs 'size_mm' = [width, height]")
+    source = raw.get("source")
+    geom = Geometry(
+        ranges[0], ranges[1], ranges[2], size_m[0] * 1000.0, size_m[1] * 1000.0, str(source)
+    )
+    return family, geom
 
 
 def parse_table(text: str, where: str = "devices.toml") -> dict[tuple[int, int], DeviceEntry]:

@@ -223,13 +223,17 @@ def open_hidraw(
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
         entry = lookup(vid, pid)
-        raw = entry.descriptor if entry and entry.descriptor else read_descriptor(dev, path)
+        own = read_descriptor(dev, path)
+        raw = entry.descriptor if entry and entry.descriptor else own
         init = _vendor_init(dev, entry, usb_backend)
         desc = parse_descriptor(init.descriptor or raw)
         stream = ReportStream(
             desc, label, size_m or init.size_m, entry, init.fixup, init.proximity_timeout
         )
-        max_len = max((r.byte_size for r in desc.input_reports.values()), default=64)
+        # A family's generated descriptor describes the normalised report, not
+        # what the device sends: size reads by the device's own reports.
+        wire = parse_descriptor(own) if entry and entry.family else desc
+        max_len = max((r.byte_size for r in wire.input_reports.values()), default=64)
         reader = HidrawReader(dev, label, min(max_len, MAX_REPORT))
     except BaseException:
         dev.close()

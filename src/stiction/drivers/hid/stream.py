@@ -48,11 +48,21 @@ class ReportStream:
         `proximity_timeout`: for tablets that report no in-range state, the
         pen counts as gone this many seconds after its last report (see `idle`).
         """
+        if fixup is None and entry is not None and entry.descriptor is not None:
+            # The device table's descriptor replaces the device's own on every
+            # path (live, replay, `hid decode`), not only when opened live.
+            from stiction.drivers.hid.descriptor import parse_descriptor
+
+            desc = parse_descriptor(entry.descriptor)
         self.desc = desc
         if fixup is None and entry is not None and entry.report_fixup is not None:
             from stiction.drivers.hid.uclogic import FIXUPS
 
             fixup = FIXUPS[entry.report_fixup]
+        if fixup is None and entry is not None and entry.family and entry.geometry:
+            from stiction.drivers.hid.families import fixup as family_fixup
+
+            fixup = family_fixup(entry.family, entry.geometry)
         self.fixup = fixup
         self.proximity_timeout = proximity_timeout
         self._last_report_t: float | None = None
