@@ -71,3 +71,54 @@ def test_hid_describe_and_decode_answer_without_a_traceback(tmp_path: Path, raw:
         )
         assert "Traceback" not in done.stderr, done.stderr
         assert done.returncode == 0, done.stderr
+
+
+@pytest.mark.umockdev
+def test_a_hostile_node_beside_a_tablet_is_reported_alone(tmp_path: Path, hid_data: Path) -> None:
+    """`stiction devices` through the real hidapi backend with two mocked hidraw nodes."""
+    import json
+    import shutil
+
+    from umockdev_hidraw import write_mock
+
+    from stiction.drivers.hid.recording import load_recording
+
+    exe = shutil.which("umockdev-run")
+    if exe is None:
+        pytest.fail("umockdev-run is not installed (Debian package umockdev)")
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    (tmp_path / "a").mkdir()
+    (tmp_path / "b").mkdir()
+    hostile = write_mock(tmp_path / "a", "hostile", 0x1234, 0x5678, HUGE_EXPONENT, [], num=5)
+    tablet = write_mock(tmp_path / "b", rec.name, rec.vid, rec.pid, rec.descriptor, [], num=6)
+    cmd = [exe]
+    for files in (hostile, tablet):
+        cmd += ["--device", str(files.device), "--ioctl", f"{files.dev_node}={files.ioctl}"]
+    cmd += ["--", sys.executable, "-m", "stiction", "devices", "--json"]
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
+    assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
+    found = {d["path"]: d for d in map(json.loads, done.stdout.splitlines())}
+    assert found[tablet.dev_node]["problem"] is None
+    assert "no physical size" in found[hostile.dev_node]["problem"]
+
+
+def test_a_probe_that_fails_unexpectedly_is_one_devices_problem(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from stiction.drivers.hid import hidraw_backend
+
+    nodes = [
+        {"path": b"/dev/hidraw1", "vendor_id": 1, "product_id": 2, "product_string": "odd"},
+        {"path": b"/dev/hidraw2", "vendor_id": 3, "product_id": 4, "product_string": "fine"},
+    ]
+
+    def probe(d: dict) -> hidraw_backend.DeviceInfo:  # type: ignore[type-arg]
+        if d["path"] == b"/dev/hidraw1":
+            raise ZeroDivisionError("a bug")
+        return hidraw_backend.DeviceInfo("/dev/hidraw2", "hidraw", 3, 4, "fine", "pen", None)
+
+    monkeypatch.setattr(hidraw_backend, "_enumerate", lambda: nodes)
+    monkeypatch.setattr(hidraw_backend, "_probe", probe)
+    odd, fine = hidraw_backend.discover()
+    assert odd.kind == "unknown" and "ZeroDivisionError" in (odd.problem or "")
+    assert fine.problem is None
