@@ -6,6 +6,14 @@ queue and answered there at the next tick boundary (`serve_pending`), so a
 request sees a consistent state and never races the tick. Every request gets
 exactly one reply (the REP rule); anything malformed gets an error reply and
 is counted, and the daemon carries on.
+
+What is slow or touches the file system -- reading and compiling a scene for
+`set_scene`, compiling the changed scene of `set_params` -- is done on the
+control thread before the request is queued (`_prepare`), checked completely
+(including that every message it will cause can be encoded); the loop thread
+only swaps the ready pipeline in. A request larger than
+protocol.MAX_MESSAGE_BYTES still gets a reply naming the limit; only one
+larger than TRANSPORT_MAX_BYTES is cut off by ZeroMQ before it is read.
 """
 
 from __future__ import annotations
@@ -28,6 +36,10 @@ if TYPE_CHECKING:
 
 log = logging.getLogger("stiction.daemon.control")
 
+TRANSPORT_MAX_BYTES = 64 * protocol.MAX_MESSAGE_BYTES
+"""ZeroMQ drops a peer whose message exceeds this without a reply; between
+MAX_MESSAGE_BYTES and this a request is received and refused in words."""
+
 
 class ControlServer:
     def __init__(
@@ -40,7 +52,7 @@ class ControlServer:
     ) -> None:
         self.sock = ctx.socket(zmq.REP)
         self.sock.linger = 0
-        self.sock.setsockopt(zmq.MAXMSGSIZE, protocol.MAX_MESSAGE_BYTES)
+        self.sock.setsockopt(zmq.MAXMSGSIZE, TRANSPORT_MAX_BYTES)
         try:
             guard.bind(self.sock, endpoint, "control")
         except BaseException:
@@ -65,6 +77,7 @@ class ControlServer:
                     continue
                 payload = sock.recv()
                 pending = _Pending(payload)
+                pending.prepared = self._prepare(payload)
                 self._inbox.put(pending)
                 self._on_request()
                 while not pending.done.wait(0.25):
@@ -85,12 +98,75 @@ class ControlServer:
         inbox = self._inbox
         while not inbox.empty():
             pending = inbox.get_nowait()
-            pending.reply = self.handle(pending.payload)
+            pending.reply = self.handle(pending.payload, pending.prepared)
             pending.done.set()
 
-    def handle(self, payload: bytes) -> bytes:
+    def _prepare(self, payload: bytes) -> _Prepared | None:
+        """The slow part of a changing request, done off the tick thread; None if there is none."""
+        try:
+            op, args = protocol.parse_request(payload)
+            if op == "set_scene":
+                return self._prepare_scene(args)
+            if op == "set_params":
+                return self._prepare_params(args)
+        except StictionError as exc:
+            return _Prepared(error=str(exc))
+        except Exception as exc:  # a bug must not take the control thread down
+            log.exception("control_prepare_failed")
+            return _Prepared(error=f"internal error: {type(exc).__name__}: {exc}")
+        return None
+
+    def _prepare_scene(self, args: dict[str, Any]) -> _Prepared:
+        d = self.daemon
+        _only(args, {"toml", "path"}, "set_scene")
+        if ("toml" in args) == ("path" in args):
+            raise ProtocolError("set_scene needs exactly one of 'toml' or 'path'")
+        if "toml" in args:
+            text = args["toml"]
+            if not isinstance(text, str):
+                raise ProtocolError("set_scene 'toml' must be a string")
+            scene = d.load_scene_text(text, "<control>")
+        else:
+            path = args["path"]
+            if not isinstance(path, str):
+                raise ProtocolError("set_scene 'path' must be a string")
+            scene = d.load_scene_file(Path(path))
+        pipeline = d.prepare_scene(scene)
+
+        def apply() -> dict[str, Any]:
+            d.apply_pipeline(pipeline)
+            return {"scene": d.pipeline.wire()}
+
+        return _Prepared(apply=apply)
+
+    def _prepare_params(self, args: dict[str, Any]) -> _Prepared:
+        d = self.daemon
+        material = args.pop("material", None)
+        if material is not None and not isinstance(material, str):
+            raise ProtocolError("set_params 'material' must be a string")
+        base = d.pipeline
+        pipeline, defaults = d.prepare_params(args, material)
+
+        def apply() -> dict[str, Any]:
+            if d.pipeline is base:
+                d.apply_pipeline(pipeline, defaults)
+            else:  # the scene changed meanwhile: apply the change to the new one
+                d.apply_pipeline(*d.prepare_params(args, material))
+            log.info("params_set material=%s values=%s", material, args)
+            return d.params_reply()
+
+        return _Prepared(apply=apply)
+
+    def handle(self, payload: bytes, prepared: _Prepared | None = None) -> bytes:
         self.requests += 1
         try:
+            if prepared is None:
+                prepared = self._prepare(payload)
+            if prepared is not None:
+                if prepared.error is not None:
+                    raise ProtocolError(prepared.error)
+                assert prepared.apply is not None
+                return protocol.ok_reply(**prepared.apply())
             op, args = protocol.parse_request(payload)
             return protocol.ok_reply(**self._dispatch(op, args))
         except StictionError as exc:
@@ -109,30 +185,8 @@ class ControlServer:
         if op == "get_scene":
             scene = d.pipeline.scene
             return {"scene": d.pipeline.wire(), "toml": scene.text}
-        if op == "set_scene":
-            _only(args, {"toml", "path"}, op)
-            if ("toml" in args) == ("path" in args):
-                raise ProtocolError("set_scene needs exactly one of 'toml' or 'path'")
-            if "toml" in args:
-                text = args["toml"]
-                if not isinstance(text, str):
-                    raise ProtocolError("set_scene 'toml' must be a string")
-                scene = d.load_scene_text(text, "<control>")
-            else:
-                path = args["path"]
-                if not isinstance(path, str):
-                    raise ProtocolError("set_scene 'path' must be a string")
-                scene = d.load_scene_file(Path(path))
-            d.set_scene(scene)
-            return {"scene": d.pipeline.wire()}
         if op == "get_params":
             _only(args, set(), op)
-            return d.params_reply()
-        if op == "set_params":
-            material = args.pop("material", None)
-            if material is not None and not isinstance(material, str):
-                raise ProtocolError("set_params 'material' must be a string")
-            d.set_params(args, material)
             return d.params_reply()
         if op == "devices":
             return {"devices": d.devices()}
@@ -147,11 +201,24 @@ class ControlServer:
         self._thread.join(timeout=2.0)
 
 
+class _Prepared:
+    """A change made ready off the tick thread: `apply` swaps it in, or `error` refuses it."""
+
+    __slots__ = ("apply", "error")
+
+    def __init__(
+        self, apply: Callable[[], dict[str, Any]] | None = None, error: str | None = None
+    ) -> None:
+        self.apply = apply
+        self.error = error
+
+
 class _Pending:
-    __slots__ = ("done", "payload", "reply")
+    __slots__ = ("done", "payload", "prepared", "reply")
 
     def __init__(self, payload: bytes) -> None:
         self.payload = payload
+        self.prepared: _Prepared | None = None
         self.reply = b""
         self.done = threading.Event()
 

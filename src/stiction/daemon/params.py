@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from stiction.errors import ParamError
+from stiction.scene.load import MAX_FRICTION, MAX_NUMBER
 from stiction.scene.model import Scene
 
 MATERIAL_PARAMS = ("mu_s", "mu_k", "k", "m", "C_l")
@@ -34,8 +35,12 @@ def apply_params(
             raise ParamError(f"unknown parameter {key!r}; known: {', '.join(allowed)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise ParamError(f"parameter {key} must be a number, got {value!r}")
-        if not math.isfinite(value):
-            raise ParamError(f"parameter {key} must be finite, got {value!r}")
+        # The same bounds a scene file has: a huge integer must not overflow float().
+        limit = MAX_FRICTION if key in ("mu_s", "mu_k") else MAX_NUMBER
+        if isinstance(value, int) and abs(value) > limit:
+            raise ParamError(f"parameter {key} must be at most {limit:g}, got {value}")
+        if not math.isfinite(value) or abs(value) > limit:
+            raise ParamError(f"parameter {key} must be finite and at most {limit:g}, got {value!r}")
         clean[key] = float(value)
     new_defaults = dict(defaults)
     materials = dict(scene.materials)

@@ -21,6 +21,7 @@ from __future__ import annotations
 import gc
 import logging
 import math
+import queue
 import sys
 import threading
 import time
@@ -154,6 +155,8 @@ class Daemon:
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
         self._stop = threading.Event()
         self._reload = threading.Event()
+        self._reload_worker: threading.Thread | None = None
+        self._tasks: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
         self._started = time.monotonic()
         self.hotplug: Any = None
         self.on_tick: Callable[[int], None] | None = None
@@ -373,6 +376,7 @@ class Daemon:
                 break
             if self.control is not None:
                 self.control.serve_pending()
+            self._run_tasks()
             if self._may_idle() and self._idle(limit):
                 continue
             deadline = self.schedule.deadline
@@ -383,7 +387,7 @@ class Daemon:
                 self.jitter.add(lateness)
             if self._reload.is_set():
                 self._reload.clear()
-                self.reload()
+                self._start_reload()
             self._adopt()
             self._tick(deadline, prev_t)
             prev_t = deadline
@@ -424,6 +428,7 @@ class Daemon:
             busy = (
                 self._stop.is_set()
                 or self._reload.is_set()
+                or not self._tasks.empty()
                 or not self._may_idle()
                 or (self.control is not None and self.control.has_pending())
                 or (self.hotplug is not None and not self.hotplug.ready.empty())
@@ -523,15 +528,34 @@ class Daemon:
         msg = protocol.scene_message(self.pipeline.wire(), self.last_tick)
         self.publisher.send(protocol.TOPIC_SCENE, msg)
 
-    def set_scene(self, scene: Scene) -> None:
-        """Compile and switch to `scene`; on any error the current scene stays."""
+    def prepare_scene(
+        self, scene: Scene, defaults: dict[str, Any] | None = None, *, count: bool = True
+    ) -> Pipeline:
+        """Compile `scene` and check that what it will publish can be encoded; apply nothing.
+
+        Safe off the loop thread: it reads the current pipeline only for the tick
+        number. A refused scene is counted and leaves the running one untouched.
+        """
         try:
-            pipeline = Pipeline(scene, self.backend, self.defaults)
+            pipeline = Pipeline(
+                scene, self.backend, self.defaults if defaults is None else defaults
+            )
+            wire = pipeline.wire()
+            protocol.encode(protocol.scene_message(wire, max(self.last_tick, 0)))
+            protocol.ok_reply(scene=wire, toml=scene.text)
         except StictionError:
-            self.counters["scene_errors"] += 1
+            if count:
+                self.counters["scene_errors"] += 1
             raise
+        return pipeline
+
+    def apply_pipeline(self, pipeline: Pipeline, defaults: dict[str, Any] | None = None) -> None:
+        """Switch to a prepared pipeline (loop thread): nothing here can fail on user input."""
         old_display = self.pipeline.scene.display
+        scene = pipeline.scene
         self.pipeline = pipeline
+        if defaults is not None:
+            self.defaults = defaults
         self.counters["scene_loads"] += 1
         if scene.display != old_display:
             for slot in self.slots:
@@ -542,6 +566,10 @@ class Daemon:
                     )
         log.info("scene_loaded name=%s source=%s", scene.name, scene.source)
         self._publish_scene()
+
+    def set_scene(self, scene: Scene) -> None:
+        """Compile and switch to `scene`; on any error the current scene stays."""
+        self.apply_pipeline(self.prepare_scene(scene))
 
     def load_scene_text(self, text: str, source: str) -> Scene:
         try:
@@ -557,45 +585,95 @@ class Daemon:
             self.counters["scene_errors"] += 1
             raise
 
-    def set_params(self, values: dict[str, Any], material: str | None) -> None:
-        """Change material parameters; refused as a whole if any value is invalid."""
+    def prepare_params(
+        self, values: dict[str, Any], material: str | None
+    ) -> tuple[Pipeline, dict[str, Any]]:
+        """The pipeline and defaults with `values` applied, checked; refused as a whole."""
         from stiction.daemon.params import apply_params
 
         scene, defaults = apply_params(self.pipeline.scene, self.defaults, values, material)
-        pipeline = Pipeline(scene, self.backend, defaults)
-        self.pipeline = pipeline
-        self.defaults = defaults
+        return self.prepare_scene(scene, defaults, count=False), defaults
+
+    def set_params(self, values: dict[str, Any], material: str | None) -> None:
+        """Change material parameters; refused as a whole if any value is invalid."""
+        self.apply_pipeline(*self.prepare_params(values, material))
         log.info("params_set material=%s values=%s", material, values)
-        self._publish_scene()
 
     def reload(self) -> None:
-        """SIGHUP: re-read the config's run-time settings and the scene; keep them on error."""
+        """SIGHUP: re-read the config's run-time settings and the scene; keep them on error.
+
+        Runs on the caller's thread (a reload worker, not the loop): files are
+        read and the scene compiled here, and only the swap is posted to the loop.
+        """
         from stiction.daemon.config import load_options
 
-        self.counters["reloads"] += 1
+        # `reloads` counts finished reloads (refused or applied), so a client
+        # that sees it move also sees the outcome.
         opts = self.opts
+        params = opts.params
+        scene_path = opts.scene
         if opts.config_path is not None:
             try:
                 new = load_options(opts.config_path)
             except StictionError as exc:
                 log.error("reload_failed config=%s error=%s", opts.config_path, exc)
+                self.counters["reloads"] += 1
                 return
             if new.scene is not None and not opts.scene_from_flag:
-                opts.scene = new.scene
-            opts.params = new.params
-            self.guard.reload_keys()
+                scene_path = new.scene
+            params = new.params
         try:
             scene = (
-                self.load_scene_file(opts.scene)
-                if opts.scene
+                self.load_scene_file(scene_path)
+                if scene_path
                 else default_scene(self.pipeline.scene.display)
             )
-            self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
-            self.set_scene(scene)
+            defaults = {**self.backend.defaults(), **params, "rate": opts.rate}
+            pipeline = self.prepare_scene(scene, defaults)
         except StictionError as exc:
             log.error(
-                "reload_failed scene=%s error=%s (keeping the current scene)", opts.scene, exc
+                "reload_failed scene=%s error=%s (keeping the current scene)", scene_path, exc
             )
+            self.counters["reloads"] += 1
+            return
+
+        def swap() -> None:
+            opts.scene, opts.params = scene_path, params
+            if opts.config_path is not None:
+                self.guard.reload_keys()
+            self.apply_pipeline(pipeline, defaults)
+            self.counters["reloads"] += 1
+
+        self.post(swap)
+
+    def post(self, task: Callable[[], None]) -> None:
+        """Run `task` on the loop thread at the next tick boundary."""
+        self._tasks.put(task)
+        self.waker.wake()
+
+    def _run_tasks(self) -> None:
+        while not self._tasks.empty():
+            task = self._tasks.get_nowait()
+            try:
+                task()
+            except Exception:  # a bug in one task must not stop the loop
+                log.exception("task_failed")
+
+    def _start_reload(self) -> None:
+        """Read and compile off the loop thread; one reload at a time."""
+        worker = self._reload_worker
+        if worker is not None and worker.is_alive():
+            self._reload.set()  # again when the running one has finished
+            return
+
+        def run() -> None:
+            try:
+                self.reload()
+            except Exception:
+                log.exception("reload_failed")
+
+        self._reload_worker = threading.Thread(target=run, name="reload", daemon=True)
+        self._reload_worker.start()
 
     # ------------------------------------------------------------ replies
     def stats(self) -> dict[str, Any]:

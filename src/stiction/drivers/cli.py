@@ -5,6 +5,7 @@ from __future__ import annotations
 import argparse
 import importlib
 import json
+import logging
 import sys
 from dataclasses import asdict
 from typing import Any
@@ -20,8 +21,14 @@ def discover_all() -> list[DeviceInfo]:
     for name in BACKENDS:
         module = importlib.import_module(name)
         discover = getattr(module, "discover", None)
-        if discover is not None:
+        if discover is None:
+            continue
+        try:
             found.extend(discover())
+        except Exception as exc:  # a backend that fails must not hide the other's devices
+            logging.getLogger(__name__).warning(
+                "discovery_failed backend=%s error=%s: %s", name, type(exc).__name__, exc
+            )
     return found
 
 

@@ -10,8 +10,9 @@ class DeviceInfo:
     """A candidate input device found on this machine.
 
     `backend` is what would read it ("hidraw" or "evdev"); `kind` is "pen",
-    "touchpad", "touchscreen" or "other". `problem` is None when stiction can
-    open the node, else one sentence saying why not and what to do.
+    "touchpad", "touchscreen", "other", or "unknown" for a node that could not
+    be probed at all. `problem` is None when stiction can open the node, else
+    one sentence saying why not and what to do.
     """
 
     path: str

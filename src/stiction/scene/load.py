@@ -10,6 +10,8 @@ unknown keys are errors rather than silently ignored typos.
 from __future__ import annotations
 
 import math
+import os
+import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -43,6 +45,16 @@ _MATERIAL_KEYS = {"mu_s", "mu_k", "k", "m", "C_l", "color"}
 _SHAPE_KEYS = {"rect": {"rect"}, "circle": {"center", "radius"}, "polygon": {"points"}}
 _PRESSURE_KEYS = {"min_gain", "max_gain", "exponent"}
 
+MAX_SCENE_BYTES = 1 << 20
+"""A scene is a page of hand-written TOML; a file larger than 1 MiB is a mistake
+(or /dev/zero), refused before it is read."""
+MAX_NUMBER = 1e9
+"""Largest magnitude of any number in a scene (pixels, N/m, kg, px/m): far above
+any real scene, and far below what would overflow the simulator or the wire."""
+MAX_FRICTION = 100.0
+"""Friction coefficients above this are not a surface any more (the paper uses 0-1)."""
+MAX_DISPLAY_PX = 1 << 16
+
 
 class _Checker:
     """Carries the file name and line table so each check can raise a full message."""
@@ -67,12 +79,23 @@ class _Checker:
                 )
         return value
 
-    def number(self, value: Any, path: FieldPath, *, positive: bool = False) -> float:
+    def number(
+        self,
+        value: Any,
+        path: FieldPath,
+        *,
+        positive: bool = False,
+        maximum: float = MAX_NUMBER,
+    ) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             self.fail(path, f"must be a number, got {_kind(value)}")
+        if isinstance(value, int) and abs(value) > maximum:
+            self.fail(path, f"must be at most {maximum:g} in magnitude, got {value}")
         v = float(value)
         if not math.isfinite(v):
             self.fail(path, f"must be finite, got {value}")
+        if abs(v) > maximum:
+            self.fail(path, f"must be at most {maximum:g} in magnitude, got {value}")
         if positive and v <= 0:
             self.fail(path, f"must be a positive number, got {value}")
         if v < 0:
@@ -113,11 +136,15 @@ def _kind(value: Any) -> str:
 
 def parse_scene(text: str, source: str = "<scene>") -> Scene:
     """Validate scene text; `source` names it in error messages."""
+    if len(text) > MAX_SCENE_BYTES:
+        raise SceneError(f"{source}: {len(text)} characters; a scene is at most {MAX_SCENE_BYTES}")
     try:
         data = tomllib.loads(text)
+        c = _Checker(source, text)
     except tomllib.TOMLDecodeError as exc:
         raise SceneError(f"{source}: not valid TOML: {exc}") from None
-    c = _Checker(source, text)
+    except RecursionError:
+        raise SceneError(f"{source}: arrays or tables nested too deeply") from None
     c.table(data, (), _TOP_KEYS)
 
     head = c.table(data.get("scene", {}), ("scene",), _SCENE_KEYS)
@@ -166,12 +193,35 @@ def parse_scene(text: str, source: str = "<scene>") -> Scene:
 
 
 def load_scene(path: str | Path) -> Scene:
-    """Read and validate a scene file; unreadable files are SceneErrors too."""
+    """Read and validate a scene file; unreadable files are SceneErrors too.
+
+    Only a regular file of at most MAX_SCENE_BYTES is read: the path comes
+    from users and from any local process (set_scene), and a FIFO or a
+    device such as /dev/zero must be refused, not read until memory runs out.
+    It is opened non-blocking so that opening a FIFO cannot wait for a writer.
+    """
     p = Path(path)
     try:
-        text = p.read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise SceneError(f"{p}: cannot read scene: {exc}") from None
+        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOCTTY)
+    except OSError as exc:
+        raise SceneError(f"{p}: cannot read scene: {exc.strerror or exc}") from None
+    try:
+        st = os.fstat(fd)
+        if not stat.S_ISREG(st.st_mode):
+            raise SceneError(f"{p}: not a regular file; a scene must be a .toml file")
+        if st.st_size > MAX_SCENE_BYTES:
+            raise SceneError(f"{p}: {st.st_size} bytes; a scene is at most {MAX_SCENE_BYTES}")
+        data = os.read(fd, MAX_SCENE_BYTES + 1)
+    except OSError as exc:
+        raise SceneError(f"{p}: cannot read scene: {exc.strerror or exc}") from None
+    finally:
+        os.close(fd)
+    if len(data) > MAX_SCENE_BYTES:
+        raise SceneError(f"{p}: larger than {MAX_SCENE_BYTES} bytes; a scene is at most that")
+    try:
+        text = data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        raise SceneError(f"{p}: not UTF-8 text: {exc}") from None
     return parse_scene(text, str(p))
 
 
@@ -200,9 +250,12 @@ def _display(c: _Checker, value: Any) -> tuple[int, int]:
     if (
         not isinstance(value, list)
         or len(value) != 2
-        or not all(isinstance(v, int) and not isinstance(v, bool) and v > 0 for v in value)
+        or not all(
+            isinstance(v, int) and not isinstance(v, bool) and 0 < v <= MAX_DISPLAY_PX
+            for v in value
+        )
     ):
-        c.fail(path, f"must be [width, height] in whole pixels > 0, got {value!r}")
+        c.fail(path, f"must be [width, height] in whole pixels 1-{MAX_DISPLAY_PX}, got {value!r}")
     return int(value[0]), int(value[1])
 
 
@@ -212,7 +265,7 @@ def _effects(c: _Checker, value: Any) -> frozenset[str]:
         c.fail(path, f"must be an array of effect names, got {_kind(value)}")
     seen: set[str] = set()
     for item in value:
-        if item not in EFFECTS:
+        if not isinstance(item, str) or item not in EFFECTS:
             c.fail(path, f"unknown effect {item!r}; known: {', '.join(EFFECTS)}")
         if item in seen:
             c.fail(path, f"effect {item!r} listed twice")
@@ -236,8 +289,8 @@ def _material(c: _Checker, name: str, raw: Any) -> Material:
         color = c.string(color, (*path, "color"))
     return Material(
         name=name,
-        mu_s=c.number(t["mu_s"], (*path, "mu_s")),
-        mu_k=c.number(t["mu_k"], (*path, "mu_k")),
+        mu_s=c.number(t["mu_s"], (*path, "mu_s"), maximum=MAX_FRICTION),
+        mu_k=c.number(t["mu_k"], (*path, "mu_k"), maximum=MAX_FRICTION),
         k=c.number(t["k"], (*path, "k"), positive=True) if "k" in t else None,
         m=c.number(t["m"], (*path, "m"), positive=True) if "m" in t else None,
         C_l=c.number(t["C_l"], (*path, "C_l"), positive=True) if "C_l" in t else None,
@@ -255,7 +308,7 @@ def _region(c: _Checker, index: int, raw: Any, materials: Mapping[str, Material]
     if not isinstance(raw, dict):
         c.fail(path, "must be a table")
     shape_name = raw.get("shape")
-    if shape_name not in _SHAPE_KEYS:
+    if not isinstance(shape_name, str) or shape_name not in _SHAPE_KEYS:
         c.fail((*path, "shape"), f"must be one of rect, circle, polygon, got {shape_name!r}")
     t = c.table(raw, path, {"name", "material", "shape"} | _SHAPE_KEYS[shape_name])
     name = c.string(t.get("name", f"region{index}"), (*path, "name"))

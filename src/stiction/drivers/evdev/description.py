@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 
 from evdev import ecodes
 
+from stiction.drivers.limits import MAX_SLOTS
+
 EV_SYN = ecodes.EV_SYN
 EV_KEY = ecodes.EV_KEY
 EV_ABS = ecodes.EV_ABS
@@ -92,7 +94,9 @@ class DeviceDescription:
         slot = self.axes.get(ecodes.ABS_MT_SLOT)
         if slot is None or not self.is_multitouch:
             return 0
-        return max(0, slot.maximum + 1)
+        # The kernel allows at most MAX_SLOTS; a recording claiming 2^31 must not
+        # allocate them (events for slots beyond are counted as invalid).
+        return max(0, min(slot.maximum + 1, MAX_SLOTS))
 
     @property
     def position_codes(self) -> tuple[int, int]:

@@ -8,6 +8,7 @@ added where pyudev finds them.
 
 from __future__ import annotations
 
+import logging
 import os
 import sys
 from pathlib import Path
@@ -16,6 +17,8 @@ from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.info import DeviceInfo
 
 SYSFS_INPUT = Path("/sys/class/input")
+
+log = logging.getLogger(__name__)
 
 
 def _bitmask(text: str) -> frozenset[int]:
@@ -90,7 +93,11 @@ def discover(sysfs: Path = SYSFS_INPUT) -> list[DeviceInfo]:
         return out
     for ev in entries:
         node = f"/dev/input/{ev.name}"
-        desc = describe_sysfs(ev, node)
+        try:
+            desc = describe_sysfs(ev, node)
+        except Exception as exc:  # one odd node must not hide the others
+            log.warning("probe_failed path=%s error=%s: %s", node, type(exc).__name__, exc)
+            continue
         kind = desc.kind
         if kind == "other":
             continue

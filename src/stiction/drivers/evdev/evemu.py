@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
+from stiction.drivers.limits import read_text
 from stiction.errors import RecordingError
 
 Event = tuple[int, int, int, int, int]
@@ -60,10 +61,7 @@ def parse_event_time(field: str) -> tuple[int, int]:
 def parse(path: Path, text: str | None = None) -> EvemuFile:
     """Parse an evemu file; malformed lines raise RecordingError naming file and line."""
     if text is None:
-        try:
-            text = path.read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise RecordingError(f"cannot read {path}: {exc.strerror or exc}") from exc
+        text = read_text(path)
     name: str | None = None
     ids = (0, 0, 0, 0)
     props: frozenset[int] = frozenset()
@@ -101,6 +99,11 @@ def parse(path: Path, text: str | None = None) -> EvemuFile:
                 if len(fields) != 4:
                     raise ValueError("an event needs time, type, code and value")
                 sec, usec = parse_event_time(fields[0])
+                if events and (sec, usec) < events[-1][:2]:
+                    last_sec, last_usec = events[-1][:2]
+                    raise ValueError(
+                        f"time {sec}.{usec:06d} runs backwards (after {last_sec}.{last_usec:06d})"
+                    )
                 ev_type, code, value = int(fields[1], 16), int(fields[2], 16), int(fields[3], 10)
                 if not (0 <= ev_type <= 0x1F and 0 <= code <= 0x2FF):
                     raise ValueError(f"type {ev_type:#x} / code {code:#x} out of range")

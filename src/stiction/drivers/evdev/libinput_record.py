@@ -17,6 +17,7 @@ import yaml
 
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.evdev.evemu import Event
+from stiction.drivers.limits import read_text
 from stiction.errors import RecordingError
 
 try:
@@ -58,14 +59,14 @@ def parse(
     tablet and a keyboard replays the tablet.
     """
     if text is None:
-        try:
-            text = path.read_text(encoding="utf-8", errors="replace")
-        except OSError as exc:
-            raise RecordingError(f"cannot read {path}: {exc.strerror or exc}") from exc
+        text = read_text(path)
     try:
+        _refuse_aliases(path, text)
         doc = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
         raise RecordingError(f"{path}: not valid YAML: {exc}") from None
+    except RecursionError:
+        raise RecordingError(f"{path}: YAML nested too deeply") from None
     if not isinstance(doc, dict):
         raise RecordingError(f"{path}: not a libinput record file (no top-level mapping)")
     version = doc.get("version")
@@ -83,6 +84,16 @@ def parse(
         if desc.kind != "other":
             return desc, events
     return parsed[0]
+
+
+def _refuse_aliases(path: Path, text: str) -> None:
+    """libinput writes no anchors or aliases; a file with them is refused before
+    it is loaded, because a few aliases expand a 1 MB file into billions of nodes."""
+    for event in yaml.parse(text, Loader=_Loader):
+        if isinstance(event, yaml.AliasEvent):
+            mark = event.start_mark
+            line = f":{mark.line + 1}" if mark is not None else ""
+            raise RecordingError(f"{path}{line}: YAML aliases (*name) are not allowed here")
 
 
 def _parse_device(path: Path, dev: Any, index: int) -> tuple[DeviceDescription, list[Event]]:
@@ -146,6 +157,8 @@ def _parse_device(path: Path, dev: Any, index: int) -> tuple[DeviceDescription, 
             sec, usec, typ, code, val = _ints(e, 5, f"{where}.events[{i}].evdev[{j}]")
             if not (sec >= 0 and 0 <= usec < 1_000_000 and 0 <= typ <= 0x1F and 0 <= code <= 0x2FF):
                 raise RecordingError(f"{where}.events[{i}].evdev[{j}]: impossible event {e}")
+            if events and (sec, usec) < events[-1][:2]:
+                raise RecordingError(f"{where}.events[{i}].evdev[{j}]: time runs backwards")
             events.append((sec, usec, typ, code, val))
     return desc, events
 

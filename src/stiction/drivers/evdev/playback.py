@@ -8,6 +8,7 @@ can check pacing without sleeping.
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 from collections import Counter
@@ -20,6 +21,7 @@ from stiction.drivers.evdev.frames import Frame, FrameAssembler
 from stiction.drivers.evdev.recording import Recording, load
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
+from stiction.drivers.limits import GapCompressor
 from stiction.drivers.sample import PenSample
 
 _CHUNK = 4096  # events framed at a time
@@ -67,9 +69,14 @@ class ReplaySource(EvdevSourceBase):
         units = self._units
         start_wall: float | None = None
         start_t = 0.0
+        compress = GapCompressor(self.name)
         for frame in self._frames(asm):
             if self._closed.is_set():
                 return
+            t = compress(frame.time)
+            if t != frame.time:
+                sec = math.floor(t)
+                frame = frame._replace(sec=sec, usec=min(round((t - sec) * 1e6), 999_999))
             if self.realtime:
                 if start_wall is None:
                     start_wall, start_t = self._clock(), frame.time

@@ -15,6 +15,7 @@ from pathlib import Path
 from stiction.drivers.evdev import evemu, libinput_record
 from stiction.drivers.evdev.description import DeviceDescription
 from stiction.drivers.evdev.evemu import Event
+from stiction.drivers.limits import read_text
 from stiction.errors import RecordingError
 
 
@@ -28,13 +29,14 @@ class Recording:
 
 def _read(path: Path) -> str:
     try:
-        return path.read_text(encoding="utf-8", errors="replace")
+        path.stat()
     except FileNotFoundError:
         raise RecordingError(f"recording not found: {path}") from None
     except IsADirectoryError:
         raise RecordingError(f"{path} is a directory, not a recording") from None
     except OSError as exc:
         raise RecordingError(f"cannot read {path}: {exc.strerror or exc}") from None
+    return read_text(path)
 
 
 def _partner(path: Path, want_events: bool) -> Path:

@@ -72,6 +72,10 @@ def _byte_table(elements: list[Element]) -> tuple[tuple[int, ...], ...]:
     return tuple(table)
 
 
+FLAT_PARTS = 64
+"""Above this many runs the generated decoder builds its tuple in one flat display."""
+
+
 def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
     """Generate ``decode(data) -> tuple`` for this layout.
 
@@ -138,7 +142,12 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
     lines = ["def decode(d):"]
     if need_int:
         lines.append("    v = int.from_bytes(d, 'little')")
-    lines.append(f"    return {' + '.join(parts) if parts else '()'}")
+    if len(parts) > FLAT_PARTS:
+        # `a + b + ...` nests one level per term and a descriptor's thousands
+        # of fields overflow the compiler's recursion; a starred display is flat.
+        lines.append(f"    return ({', '.join('*' + p for p in parts)},)")
+    else:
+        lines.append(f"    return {' + '.join(parts) if parts else '()'}")
     exec(compile("\n".join(lines), "<hid report decoder>", "exec"), namespace)
     fn = namespace["decode"]
     assert callable(fn)

@@ -414,6 +414,10 @@ class _Parser:
                 usage = umin if self.loc.have_min else 0
                 new.append(replace(base, usage=usage, bit_size=size * count))
         else:
+            # The kernel clamps a usage range to HID_MAX_USAGES (hid_parser_local);
+            # so do we, or a 10-byte range of 2^32 usages exhausts memory.
+            if have_range and umax - umin >= MAX_REPORT_COUNT:
+                umax = umin + MAX_REPORT_COUNT - 1
             arr_usages = tuple(range(umin, umax + 1)) if have_range else tuple(usages)
             usage = logical or self.application
             new.append(replace(base, usage=usage, count=count, usages=arr_usages))

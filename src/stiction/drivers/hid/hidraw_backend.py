@@ -292,7 +292,17 @@ def discover() -> list[DeviceInfo]:
         return []
     found = []
     for d in sorted(devices, key=lambda d: d["path"]):
-        info = _probe(d)
+        try:
+            info = _probe(d)
+        except Exception as exc:
+            # One node that trips an unforeseen bug is reported alone; the
+            # other devices are still found (and a daemon still opens them).
+            path = bytes(d.get("path", b"?")).decode(errors="replace")
+            log.warning("probe_failed path=%s error=%s: %s", path, type(exc).__name__, exc)
+            vid, pid = int(d.get("vendor_id", 0)), int(d.get("product_id", 0))
+            problem = f"cannot be probed ({type(exc).__name__}: {exc})"
+            name = str(d.get("product_string") or "")
+            info = DeviceInfo(path, "hidraw", vid, pid, name, "unknown", problem)
         if info is not None and info.kind != "other":
             found.append(info)
     return found

@@ -26,4 +26,4 @@ def open_replay(
     label = f"{rec.name or Path(path).name} ({rec.vid:04x}:{rec.pid:04x}, {path})"
     stream = ReportStream(parse_descriptor(rec.descriptor), label, size_m, entry)
     events = [(ev.t, ev.data) for ev in rec.events]
-    return ReportSource(f"replay-{Path(path).stem}", stream, events, realtime)
+    return ReportSource(f"replay-{Path(path).stem}", stream, events, realtime, compress_gaps=True)

@@ -13,6 +13,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from stiction.drivers.limits import TimeCheck, read_text
 from stiction.errors import RecordingError
 
 
@@ -48,6 +49,7 @@ def parse_recording(text: str, source: str = "<recording>") -> Recording:
     descriptor: bytes | None = None
     events: list[Event] = []
     device_index = 0
+    check_time = TimeCheck()
     for lineno, raw in enumerate(text.splitlines(), 1):
         line = raw.strip()
         if not line or line.startswith("#"):
@@ -92,6 +94,7 @@ def parse_recording(text: str, source: str = "<recording>") -> Recording:
                 length = int(parts[1])
             except ValueError:
                 raise RecordingError(f"{where}: E: time or length is not a number") from None
+            check_time(t, where)
             data = _hex_bytes(parts[2:], where)
             if len(data) != length:
                 raise RecordingError(f"{where}: E: says {length} bytes but carries {len(data)}")
@@ -104,11 +107,7 @@ def parse_recording(text: str, source: str = "<recording>") -> Recording:
 
 def load_recording(path: str | Path) -> Recording:
     p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8", errors="replace")
-    except OSError as exc:
-        raise RecordingError(f"cannot read {p}: {exc.strerror or exc}") from None
-    return parse_recording(text, str(p))
+    return parse_recording(read_text(p), str(p))
 
 
 def format_recording(rec: Recording) -> Iterator[str]:

@@ -11,6 +11,7 @@ import time
 from collections.abc import Callable, Iterable, Iterator
 
 from stiction.drivers.hid.stream import ReportStream
+from stiction.drivers.limits import GapCompressor
 from stiction.drivers.sample import PenSample
 
 
@@ -33,8 +34,12 @@ class ReportSource:
         reports: Iterable[tuple[float, bytes | None]],
         realtime: bool = False,
         on_close: Callable[[], None] | None = None,
+        compress_gaps: bool = False,
     ) -> None:
+        """`compress_gaps`: a recording's pauses are cut to limits.MAX_GAP_S (replays only;
+        a live device's times are the clock's)."""
         self._name = name
+        self._compress_gaps = compress_gaps
         self.stream = stream
         self._reports = reports
         self._realtime = realtime
@@ -62,9 +67,12 @@ class ReportSource:
         start_wall: float | None = None
         start_t = 0.0
         feed = self.stream.feed
+        compress = GapCompressor(self.name) if self._compress_gaps else None
         for t, data in self._reports:
             if self._closed.is_set():
                 return
+            if compress is not None:
+                t = compress(t)
             if self._realtime:
                 now = time.monotonic()
                 if start_wall is None:

@@ -19,6 +19,17 @@ _LENGTH_BASE_M = {SI_LINEAR: 0.01, ENGLISH_LINEAR: 0.0254}
 _ANGLE_BASE_DEG = {SI_ROTATION: 180.0 / math.pi, ENGLISH_ROTATION: 1.0}
 
 
+MAX_EXPONENT = 15
+"""HID 1.11 gives Unit Exponent one signed nibble (-8..7); the kernel also takes a
+wider item as a plain signed value. Beyond +-15 no real device means a length
+(10^15 cm is a light-year): the unit is treated as unknown instead of
+overflowing a float."""
+
+
+def _power(exponent: int) -> float | None:
+    return 10.0**exponent if -MAX_EXPONENT <= exponent <= MAX_EXPONENT else None
+
+
 def _nibble(unit: int, index: int) -> int:
     v = (unit >> (4 * index)) & 0xF
     return v - 16 if v > 7 else v
@@ -38,7 +49,8 @@ def metres_per_physical_unit(f: Field) -> float | None:
         return None
     if any(_nibble(f.unit, i) for i in range(2, 8)):
         return None
-    return _LENGTH_BASE_M[system] * 10.0**f.unit_exponent
+    power = _power(f.unit_exponent)
+    return None if power is None else _LENGTH_BASE_M[system] * power
 
 
 def extent_m(f: Field) -> float | None:
@@ -60,10 +72,18 @@ def degrees_per_logical(f: Field) -> float:
     what tablets without one send (and what the kernel passes on).
     """
     system = f.unit & 0xF
-    if system in _ANGLE_BASE_DEG and _nibble(f.unit, 1) == 1 and f.logical_max > f.logical_min:
+    power = _power(f.unit_exponent)
+    if (
+        system in _ANGLE_BASE_DEG
+        and _nibble(f.unit, 1) == 1
+        and f.logical_max > f.logical_min
+        and power is not None
+    ):
         lo, hi = physical_range(f)
-        per_physical = _ANGLE_BASE_DEG[system] * 10.0**f.unit_exponent
-        return (hi - lo) * per_physical / (f.logical_max - f.logical_min)
+        per_physical = _ANGLE_BASE_DEG[system] * power
+        degrees = (hi - lo) * per_physical / (f.logical_max - f.logical_min)
+        if math.isfinite(degrees) and degrees != 0:
+            return degrees
     return 1.0
 
 

@@ -1,0 +1,213 @@
+"""Hostile control requests and scene files against a running daemon (issue 12).
+
+Each test names the failure it guards against: a path that is not a regular
+file blocking the tick loop, TOML of the wrong shape or nested thousands deep
+escaping as a traceback, numbers the wire cannot carry being applied, and an
+oversized request going unanswered. In every case the daemon must answer,
+keep ticking and keep the scene it had.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import subprocess
+import sys
+import threading
+from pathlib import Path
+from typing import Any
+
+import pytest
+import zmq
+from daemon_support import ListSource, Runner, make_daemon, request, stroke
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from stiction import protocol
+from stiction.errors import SceneError
+from stiction.scene.load import MAX_SCENE_BYTES, example_path, load_scene, parse_scene
+
+DEEP = "a = " + "[" * 5000 + "]" * 5000 + "\n"
+GOOD = '[scene]\nname = "ice"\noutside = "ice"\n[materials.ice]\nmu_s = 0.1\nmu_k = 0.05\n'
+
+
+def _scene_name(ctx: zmq.Context[Any], ctl: str) -> str:
+    return str(request(ctx, ctl, protocol.make_request("get_scene"))["scene"]["name"])
+
+
+@pytest.fixture
+def running(endpoints: tuple[str, str]):  # type: ignore[no-untyped-def]
+    gate = threading.Event()
+    d = make_daemon(endpoints, {"pen": ListSource(stroke(n=50), gate=gate)})
+    with Runner(d):
+        yield d, zmq.Context.instance(), endpoints[1]
+        gate.set()
+
+
+def test_set_scene_refuses_devices_and_fifos_without_reading_them(
+    running: Any, tmp_path: Path
+) -> None:
+    d, ctx, ctl = running
+    fifo = tmp_path / "scene.fifo"
+    os.mkfifo(fifo)  # nobody writes: a blocking open or read would hang the daemon
+    for path in ("/dev/zero", str(fifo), str(tmp_path)):
+        reply = request(ctx, ctl, protocol.make_request("set_scene", path=path))
+        assert reply is not None, f"no reply for {path}"
+        assert reply["ok"] is False and "not a regular file" in reply["error"]
+    assert _scene_name(ctx, ctl) == "default"
+    ticks = d.schedule.ticks
+    assert request(ctx, ctl, protocol.make_request("ping"))["ok"]
+    assert d.schedule.ticks >= ticks
+
+
+def test_a_scene_file_larger_than_the_limit_is_refused_unread(tmp_path: Path) -> None:
+    big = tmp_path / "big.toml"
+    big.write_text("# " + "x" * MAX_SCENE_BYTES + "\n")
+    with pytest.raises(SceneError, match="at most"):
+        load_scene(big)
+
+
+@pytest.mark.parametrize(
+    ("text", "where"),
+    [
+        ('[[regions]]\nmaterial = "x"\nshape = ["rect"]\n', "regions[0].shape"),
+        ("[scene]\neffects = [{a = 1}]\n", "scene.effects"),
+        ("[scene]\ndisplay = [99999999999999999999, 1]\n", "scene.display"),
+        ("[materials.m]\nmu_s = 0.5\nmu_k = 0.1\nk = 1e300\n", "materials.m.k"),
+        ("[materials.m]\nmu_s = 1e308\nmu_k = 0.1\n", "materials.m.mu_s"),
+        (DEEP, "nested too deeply"),
+    ],
+)
+def test_set_scene_with_wrong_types_huge_numbers_or_deep_nesting_is_one_error(
+    running: Any, text: str, where: str
+) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=text))
+    assert reply["ok"] is False and where in reply["error"]
+    assert not reply["error"].startswith("internal error")
+    assert _scene_name(ctx, ctl) == "default"
+    snap = request(ctx, ctl, protocol.make_request("snapshot"))
+    assert snap["ok"] and snap["scene"]["name"] == "default"
+
+
+@pytest.mark.parametrize("value", [2**63, 1e300, -(2**62), float("inf")])
+def test_set_params_refuses_numbers_out_of_range_and_keeps_going(running: Any, value: Any) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_params", k=value))
+    assert reply["ok"] is False and "parameter k" in reply["error"]
+    assert request(ctx, ctl, protocol.make_request("get_params"))["ok"]
+    assert request(ctx, ctl, protocol.make_request("snapshot"))["ok"]
+
+
+def test_an_oversized_request_gets_a_reply_naming_the_limit(running: Any) -> None:
+    d, ctx, ctl = running
+    payload = protocol.make_request("set_scene", toml="#" * (2 * protocol.MAX_MESSAGE_BYTES))
+    reply = request(ctx, ctl, payload)
+    assert reply is not None, "an oversized request went unanswered"
+    assert reply["ok"] is False and str(protocol.MAX_MESSAGE_BYTES) in reply["error"]
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=GOOD))
+    assert reply["ok"] and reply["scene"]["name"] == "ice"
+    assert d.control.errors == 1
+
+
+def test_sighup_with_a_deeply_nested_scene_keeps_the_daemon_and_its_scene(tmp_path: Path) -> None:
+    scene = tmp_path / "scene.toml"
+    scene.write_text(GOOD)
+    ctl = f"ipc://{tmp_path}/ctl"
+    proc = subprocess.Popen(
+        [
+            sys.executable,
+            "-m",
+            "stiction.daemon.main",
+            "--scene",
+            str(scene),
+            "--pub",
+            f"ipc://{tmp_path}/pub",
+            "--control",
+            ctl,
+            "--device",
+            "synthetic:demo",
+        ],
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    ctx = zmq.Context()
+    try:
+        assert request(ctx, ctl, protocol.make_request("ping"), 10_000)["ok"]
+        for text in (DEEP, '[[regions]]\nshape = ["rect"]\n'):
+            scene.write_text(text)
+            before = request(ctx, ctl, protocol.make_request("stats"))["stats"]["reloads"]
+            proc.send_signal(signal.SIGHUP)
+            for _ in range(1000):
+                stats = request(ctx, ctl, protocol.make_request("stats"))["stats"]
+                if stats["reloads"] > before:
+                    break
+            else:
+                raise AssertionError("the reload never finished")
+            assert proc.poll() is None, "SIGHUP with a bad scene killed the daemon"
+            assert _scene_name(ctx, ctl) == "ice"
+        proc.send_signal(signal.SIGTERM)
+        assert proc.wait(timeout=20) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+        ctx.term()
+    err = proc.stderr.read() if proc.stderr else ""
+    assert "nested too deeply" in err and "regions[0].shape" in err
+    assert "Traceback" not in err
+
+
+@pytest.mark.parametrize("text", [DEEP, '[[regions]]\nshape = ["rect"]\n'])
+def test_stictiond_with_a_bad_scene_exits_2_in_one_line(tmp_path: Path, text: str) -> None:
+    scene = tmp_path / "bad.toml"
+    scene.write_text(text)
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.daemon.main", "--scene", str(scene)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2
+    assert done.stderr.count("\n") == 1 and "Traceback" not in done.stderr
+    assert str(scene) in done.stderr
+
+
+_EXAMPLES = [
+    example_path(n).read_text("utf-8") for n in ("demo", "paper", "passthrough", "pressure")
+]
+
+
+@st.composite
+def _mutated_scene(draw: st.DrawFn) -> str:
+    """A shipped example with lines replaced by other TOML values of any type."""
+    lines = draw(st.sampled_from(_EXAMPLES)).splitlines()
+    values = st.sampled_from(
+        ["[1]", "{a = 1}", '"x"', "true", "1e308", "-1", "99999999999999999999", "[[1, 2]]", "nan"]
+    )
+    for _ in range(draw(st.integers(1, 4))):
+        i = draw(st.integers(0, len(lines) - 1))
+        key, sep, _ = lines[i].partition("=")
+        lines[i] = (
+            f"{key}= {draw(values)}"
+            if sep
+            else draw(st.sampled_from(["[x]", "[[regions]]", lines[i]]))
+        )
+    return "\n".join(lines) + "\n"
+
+
+@settings(max_examples=300)
+@given(text=_mutated_scene())
+def test_any_mutated_scene_is_a_scene_or_one_scene_error(text: str) -> None:
+    try:
+        parse_scene(text, "m.toml")
+    except SceneError as exc:
+        assert "\n" not in str(exc) and str(exc).startswith("m.toml")
+
+
+@settings(max_examples=200)
+@given(text=st.text(max_size=300))
+def test_any_text_is_a_scene_or_one_scene_error(text: str) -> None:
+    with contextlib.suppress(SceneError):
+        parse_scene(text, "t.toml")
