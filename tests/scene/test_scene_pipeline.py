@@ -51,7 +51,7 @@ def test_pass_through_keeps_no_simulator_and_copies_the_touch() -> None:
         (c,) = contacts
         assert c["material"] == "pass-through" and c["phase"] == "slip"
         assert c["pointer_m"] == c["touch_m"] and c["tension"] == 0.0
-    assert dev.tracks[0].sim is None
+    assert not dev.slots.has_sim[dev.tracks[0]]
 
 
 def test_friction_region_sticks_then_slips() -> None:
@@ -59,7 +59,7 @@ def test_friction_region_sticks_then_slips() -> None:
     phases = [f[0][0]["phase"] for f in frames]
     assert phases[0] == "stick" and "slip" in phases
     assert all(f[0][0]["material"] == "glue" for f in frames)
-    assert dev.tracks[0].sim is not None
+    assert dev.slots.has_sim[dev.tracks[0]]
 
 
 def test_string_and_pressure_fields_only_when_asked() -> None:
@@ -87,7 +87,7 @@ def test_entering_friction_grabs_the_pen_and_leaving_glides_back() -> None:
     # Back in free space the pointer converges on the touch and the simulator is dropped.
     last = frames[-1][0][0]
     assert last["material"] == "pass-through" and last["pointer_m"] == last["touch_m"]
-    assert dev.tracks[0].sim is None
+    assert not dev.slots.has_sim[dev.tracks[0]]
     jumps = [
         abs(b[0][0]["pointer_px"][0] - a[0][0]["pointer_px"][0])
         for a, b in itertools.pairwise(frames)

@@ -13,6 +13,7 @@ explains the choices.
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Any
 
 from stiction.errors import StictionError
 
@@ -104,6 +105,10 @@ class AreaMapping:
             self._ax * x + self._bx * y + self._cx,
             self._ay * x + self._by * y + self._cy,
         )
+
+    def to_px_array(self, x: Any, y: Any) -> tuple[Any, Any]:
+        """to_px for arrays of points (the scene pipeline's batch step); same arithmetic."""
+        return (self._ax * x + self._bx * y + self._cx, self._ay * x + self._by * y + self._cy)
 
 
 class RelativeMapping:

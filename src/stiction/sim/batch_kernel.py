@@ -88,5 +88,7 @@ def warm_up() -> None:
     tips = np.ones(2, dtype=bool)
     advance_rows(S, xs, ys, tips, tips, 0.0, -np.inf)
     advance_rows(S, xs + 0.01, ys, tips, tips, 0.01, 0.0)
-    starts = np.array([0, 1, 2], dtype=np.int64)
-    advance_tracks(S, rows, starts, np.array([0.015, 0.015]), xs, ys, tips, tips, np.ones(2), 0.02)
+    firsts = np.array([0, 1], dtype=np.int64)
+    ends = firsts + 1
+    st = np.array([0.015, 0.015])
+    advance_tracks(S, rows, firsts, ends, st, xs, ys, tips, tips, np.ones(2), 0.02)

@@ -778,7 +778,8 @@ def set_loads(S: Any, loads: Any, t: float) -> None:
 def advance_tracks(
     S: Any,
     rows: Any,
-    starts: Any,
+    firsts: Any,
+    ends: Any,
     st: Any,
     sx: Any,
     sy: Any,
@@ -787,16 +788,17 @@ def advance_tracks(
     loads: Any,
     t: float,
 ) -> None:
-    """advance_one for rows[j] over samples [starts[j], starts[j + 1]), every j."""
+    """advance_one for rows[j] over samples [firsts[j], ends[j]), every j."""
     for j in range(rows.shape[0]):
-        advance_one(S[rows[j]], st, sx, sy, stip, srange, starts[j], starts[j + 1], t, loads[j])
+        advance_one(S[rows[j]], st, sx, sy, stip, srange, firsts[j], ends[j], t, loads[j])
 
 
 def copy_params(S: Any, rows: Any, src: Any) -> None:
-    """Rows `rows` of S take the parameters of row `src`, keeping their load gain."""
+    """Rows `rows` of S take the parameters (and PID) of row `src`, keeping their load gain."""
     for j in range(rows.shape[0]):
         r = S[rows[j]]
         for f in range(PARAM_FIRST, PARAM_END):
             if f != LOAD:
                 r[f] = src[f]
+        r[PID] = src[PID]
         apply_load(r)
