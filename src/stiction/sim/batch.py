@@ -54,6 +54,18 @@ def load_kernel() -> Any:
     return _KERNEL or None
 
 
+def warm_up() -> bool:
+    """Compile (or load from numba's cache) the batch loops now, not at the first tick.
+
+    The daemon calls this before it starts its clock. False without numba.
+    """
+    kernel = load_kernel()
+    if kernel is None:
+        return False
+    kernel.warm_up()
+    return True
+
+
 class _Interpreted:
     """step.py's loops as plain Python: what BatchSim runs without numba."""
 
