@@ -13,7 +13,6 @@ explains the choices.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 from stiction.errors import StictionError
 
@@ -106,9 +105,11 @@ class AreaMapping:
             self._ay * x + self._by * y + self._cy,
         )
 
-    def to_px_array(self, x: Any, y: Any) -> tuple[Any, Any]:
-        """to_px for arrays of points (the scene pipeline's batch step); same arithmetic."""
-        return (self._ax * x + self._bx * y + self._cx, self._ay * x + self._by * y + self._cy)
+    def affine(self) -> tuple[float, float, float, float, float, float]:
+        """(ax, bx, cx, ay, by, cy): to_px is (ax x + bx y + cx, ay x + by y + cy).
+
+        For the scene pipeline's compiled batch step, which applies it itself."""
+        return (self._ax, self._bx, self._cx, self._ay, self._by, self._cy)
 
 
 class RelativeMapping:

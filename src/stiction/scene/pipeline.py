@@ -26,6 +26,7 @@ import numpy.typing as npt
 
 from stiction.drivers.sample import PenSample
 from stiction.protocol import PASS_THROUGH, ContactWire, Phase, SceneWire
+from stiction.scene import tick
 from stiction.scene.model import PRESSURE_LOAD, STICK_SLIP, STRING, Circle, Rect, Scene
 
 SETTLE_DISTANCE_M = 1e-6
@@ -307,9 +308,6 @@ class NaivePipeline:
 
 # ------------------------------------------------------------------ batch
 _PHASE_NAMES: tuple[Phase, ...] = ("stick", "slip", "hover", "up")
-_MODE_TO_CODE = np.array([0, 1, 1, 2, 3], dtype=np.int8)
-"""Simulator mode (stick, moving, resting, hover, up) -> index into _PHASE_NAMES."""
-STICK_C, SLIP_C, HOVER_C, UP_C = 0, 1, 2, 3
 
 
 @dataclass(slots=True)
@@ -330,51 +328,42 @@ class SampleArrays:
     @classmethod
     def from_samples(cls, samples: Iterable[PenSample]) -> SampleArrays:
         ss = list(samples)
+        n = len(ss)
         return cls(
-            np.fromiter((s.contact for s in ss), np.int64, len(ss)),
-            np.fromiter((s.t for s in ss), np.float64, len(ss)),
-            np.fromiter((s.x for s in ss), np.float64, len(ss)),
-            np.fromiter((s.y for s in ss), np.float64, len(ss)),
-            np.fromiter((s.tip for s in ss), np.bool_, len(ss)),
-            np.fromiter((s.in_range for s in ss), np.bool_, len(ss)),
+            np.fromiter((s.contact for s in ss), np.int64, n),
+            np.fromiter((s.t for s in ss), np.float64, n),
+            np.fromiter((s.x for s in ss), np.float64, n),
+            np.fromiter((s.y for s in ss), np.float64, n),
+            np.fromiter((s.tip for s in ss), np.bool_, n),
+            np.fromiter((s.in_range for s in ss), np.bool_, n),
             np.fromiter(
-                (math.nan if s.pressure is None else s.pressure for s in ss), np.float64, len(ss)
+                (math.nan if s.pressure is None else s.pressure for s in ss), np.float64, n
             ),
         )
 
 
 class _Slots:
-    """The batch pipeline's per-contact state of one device, one slot per live contact."""
+    """The batch pipeline's state of one device: a simulator row and an L row per live contact."""
 
     def __init__(self, stepper: Any, capacity: int = 16) -> None:
         self.stepper = stepper
         self.S = stepper.new_rows(capacity)
-        self.id = np.zeros(capacity, dtype=np.int64)
-        self.phase = np.full(capacity, UP_C, dtype=np.int8)
-        self.has_sim = np.zeros(capacity, dtype=bool)
-        self.material = np.full(capacity, -1, dtype=np.int64)
-        """Index into `names` of the material the simulator is on (-1: none)."""
+        self.L = np.zeros((capacity, tick.LCOLS))
+        self.L[:, tick.LPHASE] = tick.UP_C
+        self.L[:, tick.LMAT] = -1
         self.names: tuple[str, ...] = ()
-        self.lx = np.zeros(capacity)
-        self.ly = np.zeros(capacity)
-        self.lt = np.zeros(capacity)
-        self.ltip = np.zeros(capacity, dtype=bool)
-        self.lrange = np.zeros(capacity, dtype=bool)
-        self.lpressure = np.full(capacity, math.nan)
         self.free = list(range(capacity - 1, -1, -1))
         self.order_ids = np.zeros(0, dtype=np.int64)
         """Live contact ids, ascending, and their slots: the output order."""
         self.order_slots = np.zeros(0, dtype=np.int64)
+        self.out = np.zeros((capacity, tick.OCOLS))
 
     def grow(self) -> None:
-        old = self.id.shape[0]
-        new = 2 * old
+        old = self.L.shape[0]
         self.S = np.concatenate([self.S, self.stepper.new_rows(old)])
-        for name in ("id", "phase", "has_sim", "material", "lx", "ly", "lt", "ltip", "lrange"):
-            arr = getattr(self, name)
-            setattr(self, name, np.concatenate([arr, np.zeros_like(arr)]))
-        self.lpressure = np.concatenate([self.lpressure, np.full(old, math.nan)])
-        self.free.extend(range(new - 1, old - 1, -1))
+        self.L = np.concatenate([self.L, self.L[:old] * 0.0])
+        self.out = np.zeros((2 * old, tick.OCOLS))
+        self.free.extend(range(2 * old - 1, old - 1, -1))
 
     def reorder(self, tracks: dict[int, Any]) -> None:
         ids = np.fromiter(tracks.keys(), np.int64, len(tracks))
@@ -386,82 +375,67 @@ class _Slots:
 
 @dataclass(slots=True)
 class ContactArrays:
-    """One device's contacts at a tick, as arrays in id order (`Pipeline.step_arrays`)."""
+    """One device's contacts at a tick, in id order (`Pipeline.step_arrays`).
 
-    pipeline: Pipeline
-    id: npt.NDArray[np.int64]
-    phase: npt.NDArray[np.int8]
-    """Index into ("stick", "slip", "hover", "up")."""
-    touch: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
-    pointer: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
-    touch_px: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
-    pointer_px: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64]]
-    tension: npt.NDArray[np.float64]
-    material: npt.NDArray[np.int64]
-    """Index into `pipeline.names`; -1 is pass-through."""
-    string: tuple[npt.NDArray[np.float64], npt.NDArray[np.float64], npt.NDArray[np.float64]] | None
-    pressure: npt.NDArray[np.float64] | None
-    load_gain: npt.NDArray[np.float64] | None
+    `values` has one row per contact and the columns of stiction.scene.tick
+    (OPHASE: index into ("stick", "slip", "hover", "up"); OMAT: index into
+    `names`, -1 for pass-through; touch, pointer and their pixels; tension;
+    string length and direction; pressure and load gain).
+    """
+
+    ids: npt.NDArray[np.int64]
+    values: npt.NDArray[np.float64]
+    names: tuple[str, ...]
+    string: bool
+    pressure: bool
 
     def wire(self) -> list[ContactWire]:
         """The contacts as the protocol's dictionaries (what `Pipeline.step` returns)."""
-        names = self.pipeline.names
-        cols = [
-            self.id.tolist(),
-            self.phase.tolist(),
-            self.touch[0].tolist(),
-            self.touch[1].tolist(),
-            self.pointer[0].tolist(),
-            self.pointer[1].tolist(),
-            self.touch_px[0].tolist(),
-            self.touch_px[1].tolist(),
-            self.pointer_px[0].tolist(),
-            self.pointer_px[1].tolist(),
-            self.tension.tolist(),
-            self.material.tolist(),
-        ]
+        names = self.names
         out: list[ContactWire] = []
-        for cid, ph, tx, ty, px, py, tpx, tpy, ppx, ppy, ten, mat in zip(*cols, strict=True):
+        for cid, row in zip(self.ids.tolist(), self.values.tolist(), strict=True):
+            (ph, tx, ty, px, py, tpx, tpy, ppx, ppy, ten, mat, ln, dx, dy, pr, lg) = row
+            mi = int(mat)
             c: ContactWire = {
                 "id": cid,
-                "phase": _PHASE_NAMES[ph],
+                "phase": _PHASE_NAMES[int(ph)],
                 "touch_m": [tx, ty],
                 "pointer_m": [px, py],
                 "touch_px": [tpx, tpy],
                 "pointer_px": [ppx, ppy],
                 "tension": ten,
-                "material": names[mat] if mat >= 0 else PASS_THROUGH,
+                "material": names[mi] if mi >= 0 else PASS_THROUGH,
             }
-            out.append(c)
-        if self.string is not None:
-            length, dx, dy = (a.tolist() for a in self.string)
-            for c, ln, a, b in zip(out, length, dx, dy, strict=True):
-                c["string"] = {"length_px": ln, "dir": [a, b]}
-        if self.pressure is not None and self.load_gain is not None:
-            for c, p, g in zip(out, self.pressure.tolist(), self.load_gain.tolist(), strict=True):
+            if self.string:
+                c["string"] = {"length_px": ln, "dir": [dx, dy]}
+            if self.pressure:
                 wire: dict[str, Any] = c  # type: ignore[assignment]
-                wire["pressure"] = None if math.isnan(p) else p
-                wire["load_gain"] = g
+                wire["pressure"] = None if math.isnan(pr) else pr
+                wire["load_gain"] = lg
+            out.append(c)
         return out
 
 
 _SERIAL = itertools.count(1)
+_TICK: dict[int, Any] = {}
+"""The compiled tick, once per process (keyed by the row stepper's id of its loops)."""
 
 
 class Pipeline:
-    """One scene, compiled, stepping every contact of a device in one batch per tick.
+    """One scene, compiled, stepping every contact of a device in one call per tick.
 
-    Per tick: the samples are grouped by contact with one sort; the material
-    under every contact is found with array tests per region; every contact
-    with friction advances in one call of the row stepper (compiled with
-    numba when installed); pass-through contacts are copied as arrays; and
-    only the fields the scene's effects produce are computed. The results
-    are those of `NaivePipeline` (tests/scene/test_scene_batch.py).
+    Per tick, one call of stiction.scene.tick.tick (numba-compiled when
+    installed) groups the samples by contact, finds the material under every
+    contact, advances every contact with friction on its simulator row,
+    copies pass-through contacts, and writes only the fields the scene's
+    effects produce. The results are those of `NaivePipeline`
+    (tests/scene/test_scene_batch.py).
 
     Each contact's row holds its material's parameters, tagged with this
     pipeline's serial; a row holding another tag (an earlier scene, or
-    parameters changed by set_params) takes this pipeline's values at the
-    next tick, so changes apply to contacts already on a material.
+    parameters since changed by set_params) takes this pipeline's values at
+    the next tick, so changes apply to contacts already on a material.
+    A mapping without an affine form (relative mapping) runs NaivePipeline.
     """
 
     def __init__(
@@ -483,21 +457,54 @@ class Pipeline:
         self.names: tuple[str, ...] = tuple(scene.materials)
         self.serial = next(_SERIAL)
         self._stepper: Any = None
-        self._rows: npt.NDArray[np.float64] | None = None
+        self._table: npt.NDArray[np.float64] | None = None
         """Row i holds names[i]'s parameters; row len(names) + i the frictionless ones."""
-        outside = scene.outside
-        self._outside = self.names.index(outside) if outside in self.names else -1
-        self._regions = [
-            (self.names.index(r.material) if r.material in self.names else -1, r.shape)
-            for r in scene.regions
-        ]
+        self._tick: Any = None
+        self._geometry()
 
     def wire(self) -> SceneWire:
         return self._naive.wire()
 
     # ------------------------------------------------------------ set-up
-    def _stepper_rows(self) -> tuple[Any, npt.NDArray[np.float64]]:
-        if self._rows is None:
+    def _geometry(self) -> None:
+        """The scene's regions as arrays for the compiled tick."""
+        names = self.names
+        regions = self.scene.regions
+        gi = np.zeros((max(len(regions), 1), 4), dtype=np.int64)
+        gf = np.zeros((max(len(regions), 1), 4))
+        pts: list[tuple[float, float]] = []
+        for k, region in enumerate(regions):
+            shape = region.shape
+            mat = names.index(region.material) if region.material in names else -1
+            if isinstance(shape, Rect):
+                gi[k, :2] = (tick.RECT, mat)
+                gf[k] = (shape.x, shape.y, shape.w, shape.h)
+            elif isinstance(shape, Circle):
+                gi[k, :2] = (tick.CIRCLE, mat)
+                gf[k, :3] = (shape.cx, shape.cy, shape.r)
+            else:
+                gi[k] = (tick.POLYGON, mat, len(pts), len(pts) + len(shape.points))
+                gf[k] = shape.bbox
+                pts.extend(shape.points)
+        self._gi, self._gf = gi, gf
+        self._pts = np.array(pts, dtype=np.float64).reshape(-1, 2) if pts else np.zeros((1, 2))
+        outside = self.scene.outside
+        self._cfg = np.array(
+            [
+                self.friction,
+                self.string,
+                self.pressure,
+                len(regions),
+                names.index(outside) if outside in names else -1,
+                len(names),
+            ],
+            dtype=np.int64,
+        )
+        pl = self.scene.pressure_load
+        self._pl = np.array([pl.min_gain, pl.max_gain, pl.exponent])
+
+    def _ready(self) -> tuple[Any, npt.NDArray[np.float64], Any]:
+        if self._table is None:
             rows_of: Any = getattr(self.backend, "rows", None)
             if rows_of is None:
                 raise TypeError("this backend has no row stepper; use NaivePipeline")
@@ -508,21 +515,25 @@ class Pipeline:
                 table[i] = stepper.param_row(self.params[name])
                 table[n + i] = stepper.param_row(self.frictionless[name])
             table[:, stepper.PID] = self.serial * 65536 + np.arange(table.shape[0])
-            self._stepper, self._rows = stepper, table
-        return self._stepper, self._rows
+            key = id(stepper.loops)
+            if key not in _TICK:
+                _TICK[key] = stepper.compile(tick.tick, tick.CALLEES)
+            self._stepper, self._table, self._tick = stepper, table, _TICK[key]
+        return self._stepper, self._table, self._tick
 
     def _slots(self, dev: DeviceRun) -> _Slots:
-        stepper, _ = self._stepper_rows()
+        stepper, _, _ = self._ready()
         slots: _Slots | None = dev.slots
         if slots is None:
             slots = dev.slots = _Slots(stepper)
             slots.names = self.names
         elif slots.names != self.names:
             # Another scene: its material indices become this scene's.
-            remap = np.array([self.names.index(n) if n in self.names else -1 for n in slots.names])
-            remap = np.append(remap, -1)  # index -1 stays -1
-            slots.material = remap[slots.material]
-            slots.names = self.names
+            names = self.names
+            remap = np.array([names.index(n) if n in names else -1 for n in slots.names] + [-1])
+            col = slots.L[:, tick.LMAT].astype(np.int64)
+            slots.L[:, tick.LMAT] = remap[col]
+            slots.names = names
         return slots
 
     # -------------------------------------------------------------- step
@@ -530,19 +541,99 @@ class Pipeline:
         self, dev: DeviceRun, t: float, prev_t: float, samples: Iterable[PenSample]
     ) -> list[ContactWire]:
         """Advance every contact of one device to tick time `t` (see NaivePipeline.step)."""
-        if getattr(dev.mapping, "to_px_array", None) is None:
+        if getattr(dev.mapping, "affine", None) is None:
             return self._naive.step(dev, t, prev_t, samples)
         return self.step_arrays(dev, t, prev_t, SampleArrays.from_samples(samples)).wire()
+
+    def step_arrays(
+        self, dev: DeviceRun, t: float, prev_t: float, s: SampleArrays
+    ) -> ContactArrays:
+        """Advance every contact of one device to `t`; the result as arrays."""
+        slots = self._slots(dev)
+        _, table, fn = self._ready()
+        mapping: Any = dev.mapping
+        aff = np.array(mapping.affine())
+        n = -1
+        for _ in range(2):
+            out = slots.out
+            n = fn(
+                slots.S,
+                slots.L,
+                slots.order_ids,
+                slots.order_slots,
+                s.contact,
+                s.t,
+                s.x,
+                s.y,
+                s.tip,
+                s.in_range,
+                s.pressure,
+                table,
+                self._gi,
+                self._gf,
+                self._pts,
+                self._cfg,
+                aff,
+                self._pl,
+                t,
+                prev_t,
+                out,
+            )
+            if n >= 0:
+                break
+            self._add_contacts(dev, slots, s)
+        values = out[:n].copy()
+        ids = slots.order_ids
+        result = ContactArrays(ids, values, self.names, self.string, self.pressure)
+        ended = values[:, tick.OPHASE] == tick.UP_C
+        if ended.any():
+            known = dev.tracks
+            for cid in ids[ended].tolist():
+                i = known.pop(cid)
+                slots.free.append(i)
+                slots.L[i, tick.LHASSIM] = 0.0
+                mapping.end(cid)
+            slots.reorder(known)
+        return result
+
+    def holds_simulator(self, dev: DeviceRun, contact: int) -> bool:
+        """Whether a live contact is simulated (on friction, or gliding back from it)."""
+        slots: _Slots | None = dev.slots
+        if slots is None or contact not in dev.tracks:
+            return False
+        return bool(slots.L[dev.tracks[contact], tick.LHASSIM] != 0.0)
+
+    def _add_contacts(self, dev: DeviceRun, slots: _Slots, s: SampleArrays) -> None:
+        """Slots for the contacts first seen this tick, their first sample as their last one."""
+        known = dev.tracks
+        uniq, first = np.unique(s.contact, return_index=True)
+        for cid, k in zip(uniq.tolist(), first.tolist(), strict=True):
+            if cid in known:
+                continue
+            if not slots.free:
+                slots.grow()
+            i = slots.free.pop()
+            known[cid] = i
+            lr = slots.L[i]
+            lr[:] = 0.0
+            lr[tick.LX], lr[tick.LY], lr[tick.LT] = s.x[k], s.y[k], s.t[k]
+            lr[tick.LTIP], lr[tick.LRANGE], lr[tick.LPRESS] = s.tip[k], s.in_range[k], s.pressure[k]
+            lr[tick.LPHASE] = tick.UP_C
+            lr[tick.LMAT] = -1
+            dev.mapping.begin(cid, float(s.x[k]), float(s.y[k]))
+        slots.reorder(known)
+        if slots.out.shape[0] < len(known):
+            slots.out = np.zeros((slots.L.shape[0], tick.OCOLS))
 
     def end_all(self, dev: DeviceRun) -> list[ContactWire]:
         """End every contact of a device that went away: each reported once as "up"."""
         slots: _Slots | None = dev.slots
-        if slots is None or getattr(dev.mapping, "to_px_array", None) is None:
+        if slots is None or getattr(dev.mapping, "affine", None) is None:
             return self._naive.end_all(dev)
         out: list[ContactWire] = []
         for cid in sorted(dev.tracks):
             i = dev.tracks[cid]
-            x, y = float(slots.lx[i]), float(slots.ly[i])
+            x, y = float(slots.L[i, tick.LX]), float(slots.L[i, tick.LY])
             tpx = dev.mapping.to_px(cid, x, y)
             c: ContactWire = {
                 "id": cid,
@@ -555,249 +646,15 @@ class Pipeline:
                 "material": PASS_THROUGH,
             }
             if self.pressure:
-                p = float(slots.lpressure[i])
+                p = float(slots.L[i, tick.LPRESS])
+                pressure = None if math.isnan(p) else p
                 wire: dict[str, Any] = c  # type: ignore[assignment]
-                wire["pressure"] = None if math.isnan(p) else p
-                wire["load_gain"] = self.scene.pressure_load.gain(wire["pressure"])
+                wire["pressure"] = pressure
+                wire["load_gain"] = self.scene.pressure_load.gain(pressure)
             out.append(c)
             dev.mapping.end(cid)
             slots.free.append(i)
+            slots.L[i, tick.LHASSIM] = 0.0
         dev.tracks.clear()
         slots.reorder(dev.tracks)
         return out
-
-    def step_arrays(
-        self, dev: DeviceRun, t: float, prev_t: float, s: SampleArrays
-    ) -> ContactArrays:
-        """Advance every contact of one device to `t`; the result as arrays."""
-        slots = self._slots(dev)
-        stepper, table = self._stepper_rows()
-        mapping: Any = dev.mapping
-        # Group the samples by contact (stable: each contact's stay in time order).
-        order = np.argsort(s.contact, kind="stable")
-        cs = s.contact[order]
-        st, sx, sy = s.t[order], s.x[order], s.y[order]
-        stip, srange, spress = s.tip[order], s.in_range[order], s.pressure[order]
-        uniq, first, count = np.unique(cs, return_index=True, return_counts=True)
-        # New contacts: a slot each, the first sample as their last one.
-        known = dev.tracks
-        if uniq.size:
-            pos = np.searchsorted(slots.order_ids, uniq)
-            pos_c = np.minimum(pos, max(slots.order_ids.size - 1, 0))
-            found = (pos < slots.order_ids.size) & (
-                slots.order_ids[pos_c] == uniq if slots.order_ids.size else False
-            )
-            if not np.all(found):
-                for u in np.nonzero(~found)[0].tolist():
-                    cid = int(uniq[u])
-                    if not slots.free:
-                        slots.grow()
-                    i = slots.free.pop()
-                    known[cid] = i
-                    k = int(first[u])
-                    slots.S[i] = stepper.new_rows(1)[0]
-                    slots.id[i] = cid
-                    slots.phase[i] = UP_C
-                    slots.has_sim[i] = False
-                    slots.material[i] = -1
-                    slots.lx[i], slots.ly[i], slots.lt[i] = sx[k], sy[k], st[k]
-                    slots.ltip[i], slots.lrange[i], slots.lpressure[i] = (
-                        stip[k],
-                        srange[k],
-                        spress[k],
-                    )
-                    mapping.begin(cid, float(sx[k]), float(sy[k]))
-                slots.reorder(known)
-        ids = slots.order_ids
-        sl = slots.order_slots
-        n = ids.size
-        # Each live contact's sample range [firsts, ends) in the sorted arrays.
-        firsts = np.zeros(n, dtype=np.int64)
-        ends = np.zeros(n, dtype=np.int64)
-        if uniq.size:
-            at = np.searchsorted(ids, uniq)
-            firsts[at] = first
-            ends[at] = first + count
-        touching = slots.phase[sl] <= SLIP_C
-        held_x, held_y, held_tip = slots.lx[sl], slots.ly[sl], slots.ltip[sl]
-        has = ends > firsts
-        if uniq.size:
-            li = ends[has] - 1
-            hs = sl[has]
-            slots.lx[hs], slots.ly[hs], slots.lt[hs] = sx[li], sy[li], st[li]
-            slots.ltip[hs], slots.lrange[hs], slots.lpressure[hs] = stip[li], srange[li], spress[li]
-        lx, ly = slots.lx[sl], slots.ly[sl]
-        ltip, lrange = slots.ltip[sl], slots.lrange[sl]
-        S = slots.S
-        phase = np.where(~lrange, UP_C, np.where(ltip, SLIP_C, HOVER_C)).astype(np.int8)
-        tx, ty = lx.copy(), ly.copy()
-        px, py = lx.copy(), ly.copy()
-        tension = np.zeros(n)
-        material = np.full(n, -1, dtype=np.int64)
-        slen = sdx = sdy = None
-        if self.string:
-            slen, sdx, sdy = np.zeros(n), np.zeros(n), np.zeros(n)
-        pressure = load = None
-        if self.pressure:
-            pressure = slots.lpressure[sl]
-            load = self._gains(pressure)
-        if not self.friction:
-            if not self.scene.regions:
-                material[:] = self._outside
-            else:
-                qx, qy = mapping.to_px_array(lx, ly)
-                material = self._material_at(qx, qy)
-        else:
-            has_sim = slots.has_sim[sl]
-            use_ptr = touching & has_sim
-            mx = np.where(use_ptr, S[sl, stepper.PX], lx)
-            my = np.where(use_ptr, S[sl, stepper.PY], ly)
-            qx, qy = mapping.to_px_array(mx, my)
-            mat = self._material_at(qx, qy)
-            fric = mat >= 0
-            nm = len(self.names)
-            old = slots.material[sl]
-            glide = ~fric & has_sim & touching & (old >= 0)
-            # Rows entering friction now: fresh, on their material, at their load.
-            new = fric & ~has_sim
-            loads = load if load is not None else np.ones(n)
-            if new.any():
-                for j in np.nonzero(new)[0].tolist():
-                    i = int(sl[j])
-                    S[i] = stepper.new_rows(1)[0]
-                    S[i, stepper.LOAD] = loads[j]
-                    stepper.loops.copy_params(S, np.array([i], dtype=np.int64), table[mat[j]])
-                    if touching[j] and held_tip[j]:
-                        # Entering friction mid-stroke: the contact starts where
-                        # the touch was held at the previous tick.
-                        stepper.touch_down(S[i], float(held_x[j]), float(held_y[j]), prev_t)
-            want = np.where(fric, mat, np.where(glide, nm + old, -1))
-            adv = want >= 0
-            rows = sl[adv]
-            wanted = want[adv]
-            # Rows holding other parameters (another material, an earlier
-            # scene, parameters since changed) take this pipeline's.
-            stale = S[rows, stepper.PID] != table[wanted, stepper.PID]
-            if stale.any():
-                for v in np.unique(wanted[stale]).tolist():
-                    pick = np.ascontiguousarray(rows[stale & (wanted == v)])
-                    stepper.loops.copy_params(S, pick, table[v])
-            stepper.loops.advance_tracks(
-                S,
-                np.ascontiguousarray(rows),
-                np.ascontiguousarray(firsts[adv]),
-                np.ascontiguousarray(ends[adv]),
-                st,
-                sx,
-                sy,
-                stip,
-                srange,
-                np.ascontiguousarray(loads[adv]),
-                t,
-            )
-            R = S[rows]
-            mode = R[:, stepper.MODE].astype(np.int64)
-            rph = _MODE_TO_CODE[mode]
-            rux, ruy = R[:, stepper.UX], R[:, stepper.UY]
-            on = mode < stepper.HOVER
-            rpx = np.where(on, R[:, stepper.PX], rux)
-            rpy = np.where(on, R[:, stepper.PY], ruy)
-            ex, ey = rux - rpx, ruy - rpy
-            d = np.sqrt(ex * ex + ey * ey)
-            ten = np.where(on, R[:, stepper.K] * d, 0.0)
-            # A glide that has settled (or ended) is dropped: the contact passes through.
-            gl = glide[adv]
-            keep = ~gl | (on & ~(np.hypot(ex, ey) < SETTLE_DISTANCE_M))
-            ai = np.nonzero(adv)[0]
-            ki = ai[keep]
-            phase[ki] = rph[keep]
-            tx[ki], ty[ki] = rux[keep], ruy[keep]
-            px[ki], py[ki] = rpx[keep], rpy[keep]
-            tension[ki] = ten[keep]
-            material[ki] = np.where(gl[keep], -1, mat[ki])
-            if slen is not None and sdx is not None and sdy is not None:
-                pos_d = on & (d > 0.0)
-                with np.errstate(invalid="ignore", divide="ignore"):
-                    ln = np.where(pos_d, R[:, stepper.CL] * np.sqrt(ten), 0.0)
-                    ux_ = np.where(pos_d, ex / d, 0.0)
-                    uy_ = np.where(pos_d, ey / d, 0.0)
-                slen[ki], sdx[ki], sdy[ki] = ln[keep], ux_[keep], uy_[keep]
-            # Who holds a simulator after this tick, and on what.
-            sim_after = np.zeros(n, dtype=bool)
-            sim_after[ki] = True
-            slots.has_sim[sl] = sim_after
-            slots.material[sl] = np.where(fric, mat, np.where(sim_after, old, -1))
-        slots.phase[sl] = phase
-        tpx = mapping.to_px_array(tx, ty)
-        ppx = mapping.to_px_array(px, py)
-        out = ContactArrays(
-            self,
-            ids.copy(),
-            phase,
-            (tx, ty),
-            (px, py),
-            tpx,
-            ppx,
-            tension,
-            material,
-            (slen, sdx, sdy) if slen is not None and sdx is not None and sdy is not None else None,
-            pressure,
-            load,
-        )
-        ended = phase == UP_C
-        if ended.any():
-            for j in np.nonzero(ended)[0].tolist():
-                cid = int(ids[j])
-                i = known.pop(cid)
-                slots.free.append(i)
-                slots.has_sim[i] = False
-                mapping.end(cid)
-            slots.reorder(known)
-        return out
-
-    # ----------------------------------------------------------- geometry
-    def _material_at(
-        self, qx: npt.NDArray[np.float64], qy: npt.NDArray[np.float64]
-    ) -> npt.NDArray[np.int64]:
-        """Scene.material_at for arrays of display points (the topmost region wins)."""
-        out = np.full(qx.shape, self._outside, dtype=np.int64)
-        for mat, shape in self._regions:
-            out[_contains(shape, qx, qy)] = mat
-        return out
-
-    def _gains(self, p: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
-        """PressureLoad.gain over arrays (1.0 where a sample has no pressure)."""
-        pl = self.scene.pressure_load
-        ok = np.isfinite(p)
-        q = np.clip(np.where(ok, p, 0.0), 0.0, 1.0)
-        g = pl.min_gain + (pl.max_gain - pl.min_gain) * np.power(q, pl.exponent)
-        return np.where(ok, g, 1.0)
-
-
-def _contains(shape: Any, px: npt.NDArray[np.float64], py: npt.NDArray[np.float64]) -> Any:
-    """shape.contains over arrays, with the same comparisons."""
-    if isinstance(shape, Rect):
-        return (
-            (shape.x <= px)
-            & (px <= shape.x + shape.w)
-            & (shape.y <= py)
-            & (py <= shape.y + shape.h)
-        )
-    if isinstance(shape, Circle):
-        dx = px - shape.cx
-        dy = py - shape.cy
-        return dx * dx + dy * dy <= shape.r * shape.r
-    x0, y0, x1, y1 = shape.bbox
-    inside = np.zeros(px.shape, dtype=bool)
-    box = ~((px < x0) | (px > x1) | (py < y0) | (py > y1))
-    pts = shape.points
-    j = len(pts) - 1
-    with np.errstate(invalid="ignore", divide="ignore"):
-        for i in range(len(pts)):
-            xi, yi = pts[i]
-            xj, yj = pts[j]
-            if yj != yi:
-                cross = ((yi > py) != (yj > py)) & (px < (xj - xi) * (py - yi) / (yj - yi) + xi)
-                inside ^= cross
-            j = i
-    return inside & box

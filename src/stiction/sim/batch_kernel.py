@@ -38,6 +38,9 @@ _CALLEES: tuple[Callable[..., Any], ...] = (
     kernels.first_entry,
     kernels.rest_time,
     step.apply_load,
+    step.reset,
+    step.take_params,
+    step.touch_down,
     step.set_load,
     step._fill_coeffs,
     step.coeffs,
@@ -72,6 +75,14 @@ advance_rows = _jit(step.advance_rows)
 set_loads = _jit(step.set_loads)
 copy_params = _jit(step.copy_params)
 advance_tracks = _jit(step.advance_tracks)
+
+
+def compile_with_step(fn: Callable[..., Any], callees: tuple[Callable[..., Any], ...] = ()) -> Any:
+    """numba-compile a caller's loop (the scene pipeline's tick) that calls step.py's
+    functions and its own `callees`."""
+    for callee in callees:
+        register_jitable(callee)
+    return _jit(fn)
 
 
 def warm_up() -> None:

@@ -8,8 +8,7 @@ layout's named fields, fresh rows, a row per parameter set, and the loops.
 
 from __future__ import annotations
 
-import math
-from typing import Any, cast
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -54,7 +53,10 @@ class RowStepper:
         checked = checked_params(self.integrator, params, self.substeps)
         return param_row(checked, self.integrator, self.substeps)
 
-    def touch_down(self, row: F, x: float, y: float, t: float) -> None:
-        """A fresh row touches down at (x, y) at time t, as if its previous tick were t."""
-        step.sample(cast(Any, row), t, x, y, True, True, t, -math.inf)
-        row[step.TICK] = t
+    def compile(self, fn: Any, callees: tuple[Any, ...] = ()) -> Any:
+        """fn compiled with numba (it may call step.py's functions and `callees`),
+        or fn itself without numba."""
+        kernel = self.loops
+        if hasattr(kernel, "compile_with_step"):
+            return kernel.compile_with_step(fn, callees)
+        return fn

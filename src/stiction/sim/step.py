@@ -793,12 +793,22 @@ def advance_tracks(
         advance_one(S[rows[j]], st, sx, sy, stip, srange, firsts[j], ends[j], t, loads[j])
 
 
+def take_params(r: Row, src: Row) -> None:
+    """Row r takes the parameters (and PID) of row src, keeping its load gain."""
+    for f in range(PARAM_FIRST, PARAM_END):
+        if f != LOAD:
+            r[f] = src[f]
+    r[PID] = src[PID]
+    apply_load(r)
+
+
+def touch_down(r: Row, x: float, y: float, t: float) -> None:
+    """A fresh row touches down at (x, y) at time t, as if its previous tick were t."""
+    sample(r, t, x, y, True, True, t, -math.inf)
+    r[TICK] = t
+
+
 def copy_params(S: Any, rows: Any, src: Any) -> None:
     """Rows `rows` of S take the parameters (and PID) of row `src`, keeping their load gain."""
     for j in range(rows.shape[0]):
-        r = S[rows[j]]
-        for f in range(PARAM_FIRST, PARAM_END):
-            if f != LOAD:
-                r[f] = src[f]
-        r[PID] = src[PID]
-        apply_load(r)
+        take_params(S[rows[j]], src)
