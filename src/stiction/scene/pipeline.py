@@ -356,13 +356,12 @@ class _Slots:
         self.order_ids = np.zeros(0, dtype=np.int64)
         """Live contact ids, ascending, and their slots: the output order."""
         self.order_slots = np.zeros(0, dtype=np.int64)
-        self.out = np.zeros((capacity, tick.OCOLS))
+        self.pos_of = np.full(64, -1, dtype=np.int64)
 
     def grow(self) -> None:
         old = self.L.shape[0]
         self.S = np.concatenate([self.S, self.stepper.new_rows(old)])
         self.L = np.concatenate([self.L, self.L[:old] * 0.0])
-        self.out = np.zeros((2 * old, tick.OCOLS))
         self.free.extend(range(2 * old - 1, old - 1, -1))
 
     def reorder(self, tracks: dict[int, Any]) -> None:
@@ -371,6 +370,14 @@ class _Slots:
         order = np.argsort(ids, kind="stable")
         self.order_ids = ids[order]
         self.order_slots = slots[order]
+        # A direct table for the usual small ids (slot numbers, tracking ids).
+        small = self.order_ids[(self.order_ids >= 0) & (self.order_ids < DENSE_IDS)]
+        size = int(small.max()) + 1 if small.size else 0
+        if self.pos_of.shape[0] < size:
+            self.pos_of = np.full(max(size, 2 * self.pos_of.shape[0]), -1, dtype=np.int64)
+        else:
+            self.pos_of[:] = -1
+        self.pos_of[small] = np.nonzero((self.order_ids >= 0) & (self.order_ids < DENSE_IDS))[0]
 
 
 @dataclass(slots=True)
@@ -416,6 +423,8 @@ class ContactArrays:
         return out
 
 
+DENSE_IDS = 1 << 16
+"""Contact ids below this are found through a table, others by binary search."""
 _SERIAL = itertools.count(1)
 _TICK: dict[int, Any] = {}
 """The compiled tick, once per process (keyed by the row stepper's id of its loops)."""
@@ -554,13 +563,14 @@ class Pipeline:
         mapping: Any = dev.mapping
         aff = np.array(mapping.affine())
         n = -1
+        out = np.empty((max(len(dev.tracks), 1), tick.OCOLS))
         for _ in range(2):
-            out = slots.out
             n = fn(
                 slots.S,
                 slots.L,
                 slots.order_ids,
                 slots.order_slots,
+                slots.pos_of,
                 s.contact,
                 s.t,
                 s.x,
@@ -582,7 +592,8 @@ class Pipeline:
             if n >= 0:
                 break
             self._add_contacts(dev, slots, s)
-        values = out[:n].copy()
+            out = np.empty((len(dev.tracks), tick.OCOLS))
+        values = out[:n]
         ids = slots.order_ids
         result = ContactArrays(ids, values, self.names, self.string, self.pressure)
         ended = values[:, tick.OPHASE] == tick.UP_C
@@ -622,8 +633,6 @@ class Pipeline:
             lr[tick.LMAT] = -1
             dev.mapping.begin(cid, float(s.x[k]), float(s.y[k]))
         slots.reorder(known)
-        if slots.out.shape[0] < len(known):
-            slots.out = np.zeros((slots.L.shape[0], tick.OCOLS))
 
     def end_all(self, dev: DeviceRun) -> list[ContactWire]:
         """End every contact of a device that went away: each reported once as "up"."""

@@ -40,10 +40,10 @@ def _contains(k: int, gi: Any, gf: Any, pts: Any, px: float, py: float) -> bool:
     kind = gi[k, 0]
     if kind == RECT:
         x, y, w, h = gf[k, 0], gf[k, 1], gf[k, 2], gf[k, 3]
-        return x <= px <= x + w and y <= py <= y + h
+        return bool(x <= px <= x + w and y <= py <= y + h)
     if kind == CIRCLE:
         cx, cy, r = gf[k, 0], gf[k, 1], gf[k, 2]
-        return (px - cx) ** 2 + (py - cy) ** 2 <= r * r
+        return bool((px - cx) ** 2 + (py - cy) ** 2 <= r * r)
     x0, y0, x1, y1 = gf[k, 0], gf[k, 1], gf[k, 2], gf[k, 3]
     if px < x0 or px > x1 or py < y0 or py > y1:
         return False
@@ -73,7 +73,7 @@ def _gain(pl: Any, p: float) -> float:
     if not math.isfinite(p):
         return 1.0
     q = min(max(p, 0.0), 1.0)
-    return pl[0] + (pl[1] - pl[0]) * q ** pl[2]
+    return float(pl[0] + (pl[1] - pl[0]) * q ** pl[2])
 
 
 def tick(
@@ -81,6 +81,7 @@ def tick(
     L: Any,
     order_ids: Any,
     order_slots: Any,
+    pos_of: Any,
     c: Any,
     st: Any,
     sx: Any,
@@ -101,6 +102,9 @@ def tick(
 ) -> int:
     """Advance every live contact (order_ids, ascending) to t; fill out[j] for contact j.
 
+    pos_of[id] is the position of contact `id` in order_ids (-1: none) for the
+    ids below pos_of's length; larger (or negative) ids are searched for.
+
     Returns the number of contacts, or -1 (having changed nothing) when a
     sample names a contact that has no slot yet: the caller adds it and
     calls again.
@@ -108,10 +112,17 @@ def tick(
     n = order_ids.shape[0]
     m = c.shape[0]
     sj = np.empty(m, dtype=np.int64)
+    dense = pos_of.shape[0]
     for k in range(m):
-        j = np.searchsorted(order_ids, c[k])
-        if j >= n or order_ids[j] != c[k]:
-            return -1
+        ck = c[k]
+        if 0 <= ck < dense:
+            j = pos_of[ck]
+            if j < 0:
+                return -1
+        else:
+            j = np.searchsorted(order_ids, ck)
+            if j >= n or order_ids[j] != ck:
+                return -1
         sj[k] = j
     # Each contact's samples together, in time order (a counting sort).
     fill = np.zeros(n + 1, dtype=np.int64)
@@ -260,7 +271,7 @@ def tick(
         o[OSDY] = sdy
         o[OPRESS] = lr[LPRESS]
         o[OLOAD] = load
-    return n
+    return int(n)
 
 
 CALLEES = (_contains, material_at, _gain)

@@ -7,9 +7,10 @@ source. A contact-step without an event is then a few dozen multiply-adds on
 a row that sits in one cache line or two.
 
 Imported lazily (stiction.sim.batch.load_kernel). numba compiles on first
-use and caches the machine code on disk: beside step.py when that folder is
-writable, else in the user's cache folder (numba_cache.py), so a package
-installed read-only does not compile again at every start. `warm_up`
+use and caches the machine code on disk: beside the package when that folder
+is writable, else in the user's cache folder, keyed by a hash of the sources
+(numba_cache.py), so a package installed read-only does not compile again at
+every start and an edited step.py is never served stale. `warm_up`
 compiles (or loads) everything before a caller's clock starts.
 """
 
@@ -18,15 +19,11 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
-from stiction.sim.numba_cache import configure_cache_dir
+import numpy as np
+from numba.extending import register_jitable  # type: ignore[import-untyped]
 
-configure_cache_dir()
-
-import numba  # type: ignore[import-untyped]  # noqa: E402
-import numpy as np  # noqa: E402
-from numba.extending import register_jitable  # type: ignore[import-untyped]  # noqa: E402
-
-from stiction.sim import kernels, step  # noqa: E402
+from stiction.sim import kernels, step
+from stiction.sim.numba_cache import njit_cached
 
 _CALLEES: tuple[Callable[..., Any], ...] = (
     kernels._f,
@@ -68,7 +65,7 @@ for _fn in _CALLEES:
 
 
 def _jit(fn: Callable[..., Any]) -> Any:
-    return numba.njit(cache=True, nogil=True)(fn)
+    return njit_cached(fn, nogil=True)
 
 
 advance_rows = _jit(step.advance_rows)

@@ -65,29 +65,32 @@ INTEGRATOR_CODES = {
 }
 
 # -------------------------------------------------------------- row layout
+# Ordered by use: a step without an event reads the first four cache lines
+# (state, input path, parameters, the usual propagator) and nothing else.
 # State.
 PX, PY, VX, VY, UX, UY, DX, DY, MODE = range(9)
-# Parameters (model.md's table) and what is derived from them and the load.
-K, M, C, W, MU_S, MU_K, G, CL, LOAD, RS2, FK = range(9, 20)
-# Integrator settings.
-HMAX, MAX_PIECES, INTEG, EVENTS = range(20, 24)
-# Slip propagator for the usual piece length HMAX: c11 c12 c21 c22, then the
-# half-step m21 m22 (kernels.propagator).
-C0 = 24
-# Two cached propagators for other piece lengths (a sample every 5 ms gives
-# pieces of 5 ms and their round-off twins): length, then six coefficients.
-HA, CA = 30, 31
-HB, CB = 37, 38
-NEXT = 44
-"""Which cache slot the next miss overwrites (0 for A, 1 for B)."""
-# Counters.
-RELEASES, LAST_RELEASE, TRUNCATED, OVERFLOWS, REJECTED, CLAMPED = range(45, 51)
 # Input path: the last tick reached (-inf before the first) and the last sample's time.
-TICK, LAST_SAMPLE = 51, 52
-PID = 53
+TICK, LAST_SAMPLE = 9, 10
+PID = 11
 """Free for the owner of the row: which parameter set it holds (the scene
 pipeline compares it to refresh rows when a scene or its parameters change)."""
-ROWS = 54
+# Parameters (model.md's table) and what is derived from them and the load.
+K, M, C, W, MU_S, MU_K, G, CL, LOAD, RS2, FK = range(12, 23)
+# Integrator settings.
+HMAX, MAX_PIECES, INTEG, EVENTS = range(23, 27)
+# Slip propagator for the usual piece length HMAX: c11 c12 c21 c22, then the
+# half-step m21 m22 (kernels.propagator).
+C0 = 27
+# Two cached propagators for other piece lengths (a sample every 5 ms gives
+# pieces of 5 ms and their round-off twins): length, then six coefficients.
+HA, CA = 33, 34
+HB, CB = 40, 41
+NEXT = 47
+"""Which cache slot the next miss overwrites (0 for A, 1 for B)."""
+# Counters.
+RELEASES, LAST_RELEASE, TRUNCATED, OVERFLOWS, REJECTED, CLAMPED = range(48, 54)
+ROWS = 56
+"""Seven cache lines of eight floats (two unused)."""
 
 PARAM_FIRST, PARAM_END = K, NEXT + 1
 """Rows [PARAM_FIRST, PARAM_END) are a contact's parameters, integrator and
