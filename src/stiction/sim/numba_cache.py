@@ -25,8 +25,12 @@ from pathlib import Path
 from typing import Any
 
 PACKAGE_DIR = Path(__file__).resolve().parent
-DEPENDENCIES = (PACKAGE_DIR / "step.py", PACKAGE_DIR / "kernels.py")
-"""What every compiled loop calls: part of every cache key."""
+DEPENDENCIES = (
+    PACKAGE_DIR / "step.py",
+    PACKAGE_DIR / "kernels.py",
+    PACKAGE_DIR / "batch_kernel.py",
+)
+"""What every compiled loop calls, and how it is compiled: part of every cache key."""
 
 
 def user_cache_dir() -> Path:

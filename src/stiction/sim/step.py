@@ -96,6 +96,11 @@ PARAM_FIRST, PARAM_END = K, NEXT + 1
 """Rows [PARAM_FIRST, PARAM_END) are a contact's parameters, integrator and
 caches: set together by `set_params`, copied together between rows."""
 
+SAFE_LO, SAFE_HI = 1e-290, 1e290
+"""Lengths are sqrt(x*x + y*y) where the squares neither under- nor overflow
+(within an ulp of math.hypot, a libm call that cost the compiled loop a
+third of its time), math.hypot outside (a tiny velocity's squares underflow)."""
+
 MAX_ZERO_EVENTS = 16
 MIN_SEGMENT = 1e-9
 """Seconds. Samples closer than this are the same instant: the touch jumps.
@@ -350,7 +355,8 @@ def rest_decide(r: Row, udx: float, udy: float, from_stick: bool) -> None:
     c = r[C]
     nx = k * sx + c * udx
     ny = k * sy + c * udy
-    n = math.hypot(nx, ny)
+    n2 = nx * nx + ny * ny
+    n = math.sqrt(n2) if SAFE_LO < n2 < SAFE_HI else math.hypot(nx, ny)
     if n > r[FK] and n > 0.0:
         r[DX] = nx / n
         r[DY] = ny / n
@@ -499,7 +505,7 @@ def piece_exact(r: Row, h: float, udx: float, udy: float) -> tuple[float, bool]:
     vx = r[VX]
     vy = r[VY]
     sp2 = vx * vx + vy * vy
-    sp = math.hypot(vx, vy)
+    sp = math.sqrt(sp2) if SAFE_LO < sp2 < SAFE_HI else math.hypot(vx, vy)
     if sp > 0.0:
         d0x = vx / sp
         d0y = vy / sp
@@ -527,7 +533,8 @@ def piece_exact(r: Row, h: float, udx: float, udy: float) -> tuple[float, bool]:
     vmx = udx + m21 * ex + m22 * ydx
     vmy = udy + m21 * ey + m22 * ydy
     vmd = vmx * d0x + vmy * d0y
-    nm = math.hypot(vmx, vmy)  # hypot: the squares of a tiny velocity underflow
+    nm2 = vmx * vmx + vmy * vmy
+    nm = math.sqrt(nm2) if SAFE_LO < nm2 < SAFE_HI else math.hypot(vmx, vmy)
     if vmd > 0.0 and nm > 0.0:
         dx = vmx / nm
         dy = vmy / nm
@@ -666,7 +673,7 @@ def piece_explicit(r: Row, h: float, udx: float, udy: float) -> tuple[float, boo
     vx = r[VX]
     vy = r[VY]
     sp2 = vx * vx + vy * vy
-    sp = math.hypot(vx, vy)
+    sp = math.sqrt(sp2) if SAFE_LO < sp2 < SAFE_HI else math.hypot(vx, vy)
     if sp > 0.0:
         dx = vx / sp
         dy = vy / sp
@@ -717,7 +724,8 @@ def piece_projection(r: Row, h: float, udx: float, udy: float) -> tuple[float, b
     uy = r[UY] + udy * h
     rx = m * vx + h * k * (ux - r[PX]) + h * c * udx
     ry = m * vy + h * k * (uy - r[PY]) + h * c * udy
-    rn = math.hypot(rx, ry)
+    rn2 = rx * rx + ry * ry
+    rn = math.sqrt(rn2) if SAFE_LO < rn2 < SAFE_HI else math.hypot(rx, ry)
     hf = h * r[FK]
     r[UX] = ux
     r[UY] = uy
