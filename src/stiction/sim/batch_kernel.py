@@ -82,9 +82,9 @@ advance_tracks = _jit(step.advance_tracks)
 
 def compile_with_step(fn: Callable[..., Any], callees: tuple[Callable[..., Any], ...] = ()) -> Any:
     """numba-compile a caller's loop (the scene pipeline's tick) that calls step.py's
-    functions and its own `callees`."""
+    functions and its own `callees` (small helpers: inlined)."""
     for callee in callees:
-        register_jitable(callee)
+        register_jitable(inline="always")(callee)
     return _jit(fn)
 
 
