@@ -3,9 +3,10 @@
 The daemon hands every device's samples for one tick to `Pipeline.step`; the
 pipeline decides per contact which material lies under the virtual pen, runs
 the friction simulation only where a material applies, and builds the wire
-contacts with only the fields the scene's effects produce. A contact over a
-pass-through area holds no simulator and costs a copy; the string is computed
-only when the scene has the ``string`` effect.
+contacts with only the fields the scene's effects produce. `Pipeline` does
+this for all contacts of a device in one compiled call (scene/tick.py, one
+simulator row per contact); `NaivePipeline`, one ContactSim and one Python
+pass per contact, is the reference it is tested and benchmarked against.
 
 The simulator is reached through `SimBackend` (stiction.scene.backend wires
 the real one), so this module never imports the simulator's internals and a
