@@ -64,7 +64,6 @@ from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import DEFAULT_DISPLAY, default_scene, load_scene, parse_scene
 from stiction.scene.model import Scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
-from stiction.sim.batch import warm_up
 
 log = logging.getLogger("stiction.daemon")
 
@@ -348,7 +347,7 @@ class Daemon:
                 else:
                     self.realtime = self.opts.realtime
                     log.info("realtime priority=%d", self.realtime)
-        warm_up()  # compile (or load) the batch step before the clock starts
+        self.pipeline.warm_up()  # compile (or load) the batch step before the clock starts
         # Everything built so far (modules, scene, compiled kernels) lives as
         # long as the daemon: out of the collector's way, so that a full
         # collection during a tick walks only what the ticks allocate.

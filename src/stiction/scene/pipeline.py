@@ -424,6 +424,22 @@ class ContactArrays:
         return out
 
 
+class _Identity:
+    """Metres as pixels: the mapping of the throw-away device `Pipeline.warm_up` steps."""
+
+    def begin(self, contact: int, x: float, y: float) -> None:
+        pass
+
+    def end(self, contact: int) -> None:
+        pass
+
+    def to_px(self, contact: int, x: float, y: float) -> tuple[float, float]:
+        return (x, y)
+
+    def affine(self) -> tuple[float, float, float, float, float, float]:
+        return (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
+
+
 DENSE_IDS = 1 << 16
 """Contact ids below this are found through a table, others by binary search."""
 _SERIAL = itertools.count(1)
@@ -607,6 +623,23 @@ class Pipeline:
                 mapping.end(cid)
             slots.reorder(known)
         return result
+
+    def warm_up(self) -> None:
+        """Compile (or load from numba's cache) the batch tick now, not at the first tick.
+
+        The daemon calls this before it starts its clock: compiling takes
+        seconds the first time, loading a fraction of one after that."""
+        dev = DeviceRun(_Identity())
+        one = SampleArrays(
+            np.zeros(1, dtype=np.int64),
+            np.zeros(1),
+            np.zeros(1),
+            np.zeros(1),
+            np.ones(1, dtype=np.bool_),
+            np.ones(1, dtype=np.bool_),
+            np.full(1, math.nan),
+        )
+        self.step_arrays(dev, 0.0, -math.inf, one)
 
     def holds_simulator(self, dev: DeviceRun, contact: int) -> bool:
         """Whether a live contact is simulated (on friction, or gliding back from it)."""

@@ -72,7 +72,6 @@ class _Interpreted:
     advance_rows = staticmethod(step.advance_rows)
     set_loads = staticmethod(step.set_loads)
     copy_params = staticmethod(step.copy_params)
-    advance_tracks = staticmethod(step.advance_tracks)
 
 
 def loops(compiled: bool | None) -> Any:

@@ -2,7 +2,7 @@
 
 Nothing here is physics: every function of step.py is registered so that
 compiled code may call it, and the loops over rows (step.advance_rows,
-set_loads, copy_params, advance_tracks) are compiled from step.py's own
+set_loads, copy_params) are compiled from step.py's own
 source. A contact-step without an event is then a few dozen multiply-adds on
 a row that sits in one cache line or two.
 
@@ -77,7 +77,6 @@ def _jit(fn: Callable[..., Any]) -> Any:
 advance_rows = _jit(step.advance_rows)
 set_loads = _jit(step.set_loads)
 copy_params = _jit(step.copy_params)
-advance_tracks = _jit(step.advance_tracks)
 
 
 def compile_with_step(fn: Callable[..., Any], callees: tuple[Callable[..., Any], ...] = ()) -> Any:
@@ -102,7 +101,4 @@ def warm_up() -> None:
     tips = np.ones(2, dtype=bool)
     advance_rows(S, xs, ys, tips, tips, 0.0, -np.inf)
     advance_rows(S, xs + 0.01, ys, tips, tips, 0.01, 0.0)
-    firsts = np.array([0, 1], dtype=np.int64)
-    ends = firsts + 1
-    st = np.array([0.015, 0.015])
-    advance_tracks(S, rows, firsts, ends, st, xs, ys, tips, tips, np.ones(2), 0.02)
+

@@ -786,24 +786,6 @@ def set_loads(S: Any, loads: Any, t: float) -> None:
             set_load(r, loads[i], t)
 
 
-def advance_tracks(
-    S: Any,
-    rows: Any,
-    firsts: Any,
-    ends: Any,
-    st: Any,
-    sx: Any,
-    sy: Any,
-    stip: Any,
-    srange: Any,
-    loads: Any,
-    t: float,
-) -> None:
-    """advance_one for rows[j] over samples [firsts[j], ends[j]), every j."""
-    for j in range(rows.shape[0]):
-        advance_one(S[rows[j]], st, sx, sy, stip, srange, firsts[j], ends[j], t, loads[j])
-
-
 def take_params(r: Row, src: Row) -> None:
     """Row r takes the parameters (and PID) of row src, keeping its load gain."""
     for f in range(PARAM_FIRST, PARAM_END):
