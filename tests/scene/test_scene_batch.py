@@ -88,18 +88,22 @@ def _strokes(seed: int, contacts: int, ticks: int) -> list[list[PenSample]]:
 
 
 def _compare(
-    scenes: list[Scene], ticks: list[list[PenSample]], switch_at: int = 10**9, mapping: Any = None
+    scenes: list[Scene],
+    ticks: list[list[PenSample]],
+    switch_at: int = 10**9,
+    mapping: Any = None,
+    compiled: bool = True,
 ) -> None:
     """Both pipelines over the same ticks; the scene changes to scenes[1] at tick switch_at."""
     make = mapping or (lambda sc: AreaMapping(SIZE, sc.display, MappingConfig()))
     naive = NaivePipeline(scenes[0], BACKEND, DEFAULTS)
-    batch = Pipeline(scenes[0], BACKEND, DEFAULTS)
+    batch = Pipeline(scenes[0], BACKEND, DEFAULTS, compiled=compiled)
     dn, db = DeviceRun(make(scenes[0])), DeviceRun(make(scenes[0]))
     prev = 0.0
     for n, samples in enumerate(ticks):
         if n == switch_at:
             naive = NaivePipeline(scenes[1], BACKEND, DEFAULTS)
-            batch = Pipeline(scenes[1], BACKEND, DEFAULTS)
+            batch = Pipeline(scenes[1], BACKEND, DEFAULTS, compiled=compiled)
         t = (n + 1) * 0.01
         _same(batch.step(db, t, prev, samples), naive.step(dn, t, prev, samples), f"tick {n}")
         prev = t
@@ -110,6 +114,20 @@ def _compare(
 def test_demo_scene_batch_equals_naive() -> None:
     scene = load_scene(EXAMPLES / "demo.toml")
     _compare([scene], _strokes(1, 12, 300))
+
+
+def test_the_tick_as_plain_python_equals_naive() -> None:
+    """What runs while the compiled tick is still compiling (Pipeline.warm_up)."""
+    scene = load_scene(EXAMPLES / "demo.toml")
+    _compare([scene], _strokes(4, 5, 60), compiled=False)
+
+
+def test_warm_up_compiles_the_tick_on_a_thread() -> None:
+    pipe = Pipeline(load_scene(EXAMPLES / "demo.toml"), BACKEND, DEFAULTS)
+    pipe.warm_up(wait=0.0)
+    _, _, compiled = pipe._ready()
+    assert compiled.ready.wait(300)
+    assert pipe.warm_up(wait=0.0)
 
 
 def test_every_example_scene_batch_equals_naive() -> None:

@@ -18,6 +18,7 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import math
+import threading
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Protocol
@@ -440,11 +441,33 @@ class _Identity:
         return (1.0, 0.0, 0.0, 0.0, 1.0, 0.0)
 
 
+WARM_UP_WAIT_S = 2.0
+"""How long Pipeline.warm_up waits for the compiled tick before the clock starts."""
 DENSE_IDS = 1 << 16
 """Contact ids below this are found through a table, others by binary search."""
 _SERIAL = itertools.count(1)
-_TICK: dict[int, Any] = {}
-"""The compiled tick, once per process (keyed by the row stepper's id of its loops)."""
+
+
+class _Compiled:
+    """The compiled tick for one set of row loops, and whether it is ready to call.
+
+    Compiling takes seconds the first time numba sees the sources (a fraction
+    of one when its cache has them). `Pipeline.warm_up` compiles on a
+    background thread and waits a little; until the thread is done, ticks run
+    `tick.tick` as plain Python (the same code, so the same results, slower).
+    A pipeline nobody warmed up compiles at its first tick.
+    """
+
+    def __init__(self, fn: Any) -> None:
+        self.fn = fn
+        self.ready = threading.Event()
+        self.background = False
+        if fn is tick.tick:  # no numba: nothing to compile
+            self.ready.set()
+
+
+_TICK: dict[int, _Compiled] = {}
+"""Per process, keyed by the id of the row stepper's loops."""
 
 
 class Pipeline:
@@ -469,7 +492,11 @@ class Pipeline:
         scene: Scene,
         backend: SimBackend,
         defaults: Mapping[str, float],
+        *,
+        compiled: bool = True,
     ) -> None:
+        self.compiled = compiled
+        """False runs the tick as plain Python (tests of that path)."""
         self._naive = NaivePipeline(scene, backend, defaults)
         self.scene = scene
         self.backend = backend
@@ -529,7 +556,7 @@ class Pipeline:
         pl = self.scene.pressure_load
         self._pl = np.array([pl.min_gain, pl.max_gain, pl.exponent])
 
-    def _ready(self) -> tuple[Any, npt.NDArray[np.float64], Any]:
+    def _ready(self) -> tuple[Any, npt.NDArray[np.float64], _Compiled]:
         if self._table is None:
             rows_of: Any = getattr(self.backend, "rows", None)
             if rows_of is None:
@@ -543,8 +570,10 @@ class Pipeline:
             table[:, stepper.PID] = self.serial * 65536 + np.arange(table.shape[0])
             key = id(stepper.loops)
             if key not in _TICK:
-                _TICK[key] = stepper.compile(tick.tick, tick.CALLEES)
-            self._stepper, self._table, self._tick = stepper, table, _TICK[key]
+                fn = stepper.compile(tick.tick, tick.CALLEES) if self.compiled else tick.tick
+                _TICK[key] = _Compiled(fn)
+            self._stepper, self._table = stepper, table
+            self._tick = _TICK[key] if self.compiled else _Compiled(tick.tick)
         return self._stepper, self._table, self._tick
 
     def _slots(self, dev: DeviceRun) -> _Slots:
@@ -576,7 +605,13 @@ class Pipeline:
     ) -> ContactArrays:
         """Advance every contact of one device to `t`; the result as arrays."""
         slots = self._slots(dev)
-        _, table, fn = self._ready()
+        _, table, compiled = self._ready()
+        if compiled.ready.is_set():
+            fn = compiled.fn
+        elif compiled.background:
+            fn = tick.tick  # still compiling on the warm-up thread
+        else:
+            fn = compiled.fn  # compiles now, at this first call
         mapping: Any = dev.mapping
         aff = np.array(mapping.affine())
         n = -1
@@ -608,8 +643,12 @@ class Pipeline:
             )
             if n >= 0:
                 break
+            if n != -1:
+                raise RuntimeError(f"scene tick refused its arguments ({n})")
             self._add_contacts(dev, slots, s)
             out = np.empty((len(dev.tracks), tick.OCOLS))
+        if fn is compiled.fn:
+            compiled.ready.set()
         values = out[:n]
         ids = slots.order_ids
         result = ContactArrays(ids, values, self.names, self.string, self.pressure)
@@ -624,22 +663,61 @@ class Pipeline:
             slots.reorder(known)
         return result
 
-    def warm_up(self) -> None:
-        """Compile (or load from numba's cache) the batch tick now, not at the first tick.
+    def warm_up(self, wait: float = WARM_UP_WAIT_S) -> bool:
+        """Compile (or load from numba's cache) the batch tick before the first tick.
 
-        The daemon calls this before it starts its clock: compiling takes
-        seconds the first time, loading a fraction of one after that."""
-        dev = DeviceRun(_Identity())
-        one = SampleArrays(
-            np.zeros(1, dtype=np.int64),
-            np.zeros(1),
-            np.zeros(1),
-            np.zeros(1),
-            np.ones(1, dtype=np.bool_),
-            np.ones(1, dtype=np.bool_),
-            np.full(1, math.nan),
+        The daemon calls this before it starts its clock. Compiling runs on a
+        background thread; this waits up to `wait` seconds for it (loading
+        from the cache takes well under that). If it is not done by then,
+        ticks run the tick as plain Python until it is, so the first frame
+        is not held up by a first compilation. Returns whether the compiled
+        tick is ready.
+        """
+        _, _, compiled = self._ready()
+        if compiled.ready.is_set():
+            return True
+        if not compiled.background:
+            compiled.background = True
+            threading.Thread(
+                target=self._compile, args=(compiled,), name="stiction-compile", daemon=True
+            ).start()
+        return bool(compiled.ready.wait(wait))
+
+    def _compile(self, compiled: _Compiled) -> None:
+        """Call the compiled tick once on a throw-away device: numba compiles it."""
+        stepper, table, _ = self._ready()
+        slots = _Slots(stepper)
+        n = 1
+        slots.order_ids = np.zeros(n, dtype=np.int64)
+        slots.order_slots = np.zeros(n, dtype=np.int64)
+        slots.pos_of[0] = 0
+        f = np.zeros(n)
+        b = np.ones(n, dtype=np.bool_)
+        compiled.fn(
+            slots.S,
+            slots.L,
+            slots.order_ids,
+            slots.order_slots,
+            slots.pos_of,
+            np.zeros(n, dtype=np.int64),
+            f,
+            f,
+            f,
+            b,
+            b,
+            np.full(n, math.nan),
+            table,
+            self._gi,
+            self._gf,
+            self._pts,
+            self._cfg,
+            np.array(_Identity().affine()),
+            self._pl,
+            0.0,
+            -math.inf,
+            np.empty((n, tick.OCOLS)),
         )
-        self.step_arrays(dev, 0.0, -math.inf, one)
+        compiled.ready.set()
 
     def holds_simulator(self, dev: DeviceRun, contact: int) -> bool:
         """Whether a live contact is simulated (on friction, or gliding back from it)."""

@@ -107,9 +107,11 @@ def tick(
 
     Returns the number of contacts, or -1 (having changed nothing) when a
     sample names a contact that has no slot yet: the caller adds it and
-    calls again.
+    calls again; -2 when `out` has fewer rows than there are contacts.
     """
     n = order_ids.shape[0]
+    if out.shape[0] < n:
+        return -2  # no room for every contact's output: refuse rather than write past it
     m = c.shape[0]
     sj = np.empty(m, dtype=np.int64)
     dense = pos_of.shape[0]

@@ -101,4 +101,3 @@ def warm_up() -> None:
     tips = np.ones(2, dtype=bool)
     advance_rows(S, xs, ys, tips, tips, 0.0, -np.inf)
     advance_rows(S, xs + 0.01, ys, tips, tips, 0.01, 0.0)
-
