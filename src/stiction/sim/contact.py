@@ -113,25 +113,23 @@ class ContactSim:
                 raise ParamError(f"load_gain must be finite and >= 0, got {load_gain!r}")
             step.set_load(r, lg, prev if prev is not None else t)
         cur = prev if prev is not None else -math.inf
+        follow = step.sample
         for s in samples:
-            cur = self._take(s, cur, t)
+            # Read here rather than in a helper: one Python call less per sample.
+            try:
+                st = float(s.t)
+                sx = float(s.x)
+                sy = float(s.y)
+                tip = bool(s.tip)
+                in_range = bool(getattr(s, "in_range", tip))
+            except (AttributeError, TypeError, ValueError):
+                self._unreadable += 1
+                continue
+            cur = follow(r, st, sx, sy, tip, in_range, t, cur)
         step.hold(r, t, cur)
         self._t = t
         self.state = st = self._snapshot(t)
         return st
-
-    def _take(self, s: Any, cur: float, t: float) -> float:
-        """Read one sample and follow the path to it; returns the time the path has reached."""
-        try:
-            st = float(s.t)
-            sx = float(s.x)
-            sy = float(s.y)
-            tip = bool(s.tip)
-            in_range = bool(getattr(s, "in_range", tip))
-        except (AttributeError, TypeError, ValueError):
-            self._unreadable += 1
-            return cur
-        return step.sample(self._row, st, sx, sy, tip, in_range, t, cur)
 
     # ----------------------------------------------------------------- output
     def _snapshot(self, t: float) -> ContactState:
