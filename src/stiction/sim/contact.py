@@ -128,8 +128,8 @@ class ContactSim:
             cur = follow(r, st, sx, sy, tip, in_range, t, cur)
         step.hold(r, t, cur)
         self._t = t
-        self.state = st = self._snapshot(t)
-        return st
+        self.state = state = self._snapshot(t)
+        return state
 
     # ----------------------------------------------------------------- output
     def _snapshot(self, t: float) -> ContactState:
