@@ -389,6 +389,20 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "libzmq": zmq.zmq_version(),
     }
 
+    print("stictiond start to first frame, numba cache cold then warm ...", file=sys.stderr)
+    cache = tempfile.mkdtemp(prefix="numba-", dir=tmp)
+    cold = first_frame(tmp, cache)
+    # The cold daemon was stopped at its first frame, maybe before its
+    # background compilation finished: fill the cache as a longer run would.
+    fill = (
+        "from stiction.scene.backend import SimulatorBackend as B; "
+        "from stiction.scene.load import default_scene; "
+        "from stiction.scene.pipeline import Pipeline; "
+        "b = B(); assert Pipeline(default_scene(), b, b.defaults()).warm_up(wait=600)"
+    )
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+    subprocess.run([sys.executable, "-c", fill], env=env, check=True, timeout=900)
+    res["first_frame_s"] = {"cold": cold, "warm": first_frame(tmp, cache)}
     pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
     raw_endpoint = f"ipc://{tmp}/raw"
     daemon_args = (args.seconds, args.rate, pub, ctl, args.device)
@@ -508,6 +522,42 @@ def _f(v: float | None, spec: str = ".3f") -> str:
     return "-" if v is None else format(v, spec)
 
 
+def first_frame(tmp: str, cache: str) -> float:
+    """Seconds from starting `stictiond` (a new process) to its first frame.
+
+    numba's cache is the folder `cache` (NUMBA_CACHE_DIR): empty for the cold
+    figure (the scene tick compiles on a thread while the first ticks run it
+    as plain Python; the daemon waits at most 2 s for it), filled for the
+    warm one (the compiled tick loads before the clock starts)."""
+    import zmq
+
+    pub, ctl = f"ipc://{tmp}/ff-pub", f"ipc://{tmp}/ff-ctl"
+    ctx = zmq.Context()
+    sub = ctx.socket(zmq.SUB)
+    sub.setsockopt(zmq.SUBSCRIBE, b"")
+    sub.connect(pub)
+    env = {**os.environ, "NUMBA_CACHE_DIR": cache}
+    cmd = [
+        sys.executable,
+        "-c",
+        "import sys; from stiction.daemon.main import main; sys.exit(main(sys.argv[1:]))",
+    ]
+    cmd += ["--device", "synthetic:demo", "--pub", pub, "--control", ctl, "--seconds", "30"]
+    t0 = time.monotonic()
+    proc = subprocess.Popen(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    try:
+        if not sub.poll(60_000):
+            raise RuntimeError("stictiond sent no frame within 60 s")
+        elapsed = time.monotonic() - t0
+        sub.recv_multipart()
+    finally:
+        proc.terminate()
+        proc.wait(30)
+        sub.close(0)
+        ctx.term()
+    return elapsed
+
+
 def _table(res: dict[str, Any]) -> str:
     b, r, d, i, t = res["bare"], res["raw"], res["daemon"], res["idle"], res["targets"]
     concurrent = res["mode"] == "concurrent"
@@ -516,12 +566,22 @@ def _table(res: dict[str, Any]) -> str:
         if concurrent
         else "before the daemon"
     )
+    ff = res.get("first_frame_s")
+    first = (
+        [
+            f"stictiond start to first frame: {ff['cold']:.2f} s with numba's cache cold, "
+            f"{ff['warm']:.2f} s warm"
+        ]
+        if ff
+        else []
+    )
     lines = [
         f"stictiond timing at {res['rate']:g} Hz, {res['subscribers']} subscriber processes, "
         f"{res['seconds']:g} s, baselines {res['mode']} ({how}), "
         f"{res['cpus']} CPUs (shared machine); CPU time stolen by the hypervisor during the "
         f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}, "
         f"SCHED_FIFO priority: {d.get('realtime', 0) or 'none (ordinary)'}",
+        *first,
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
     ]
 

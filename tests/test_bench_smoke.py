@@ -126,6 +126,6 @@ def test_bench_smoke(name: str, tmp_path: Path, request: pytest.FixtureRequest) 
     assert smoke.keys <= result.keys()
     if smoke.png:
         assert (out / f"{smoke.stem}.png").read_bytes().startswith(b"\x89PNG")
-    # --json prints JSON (accuracy: one object per setting and line).
-    lines = run.stdout.splitlines() if name == "accuracy" else [run.stdout]
+    # --json prints JSON (accuracy, scene: one object per setting or row and line).
+    lines = run.stdout.splitlines() if name in ("accuracy", "scene") else [run.stdout]
     assert lines and all(json.loads(line) for line in lines)

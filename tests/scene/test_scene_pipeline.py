@@ -46,20 +46,20 @@ def _drag(x0: float, x1: float, n: int) -> list[tuple[float, float, bool]]:
 
 
 def test_pass_through_keeps_no_simulator_and_copies_the_touch() -> None:
-    _, dev, frames = _run(HALF.format(effects='"stick_slip", "string"'), _drag(0.01, 0.09, 20))
+    pipe, dev, frames = _run(HALF.format(effects='"stick_slip", "string"'), _drag(0.01, 0.09, 20))
     for contacts, _ in frames:
         (c,) = contacts
         assert c["material"] == "pass-through" and c["phase"] == "slip"
         assert c["pointer_m"] == c["touch_m"] and c["tension"] == 0.0
-    assert dev.tracks[0].sim is None
+    assert not pipe.holds_simulator(dev, 0)
 
 
 def test_friction_region_sticks_then_slips() -> None:
-    _, dev, frames = _run(HALF.format(effects='"stick_slip"'), _drag(0.12, 0.18, 60))
+    pipe, dev, frames = _run(HALF.format(effects='"stick_slip"'), _drag(0.12, 0.18, 60))
     phases = [f[0][0]["phase"] for f in frames]
     assert phases[0] == "stick" and "slip" in phases
     assert all(f[0][0]["material"] == "glue" for f in frames)
-    assert dev.tracks[0].sim is not None
+    assert pipe.holds_simulator(dev, 0)
 
 
 def test_string_and_pressure_fields_only_when_asked() -> None:
@@ -79,7 +79,7 @@ def test_string_and_pressure_fields_only_when_asked() -> None:
 def test_entering_friction_grabs_the_pen_and_leaving_glides_back() -> None:
     # Drag from the free half (x < 0.1 m) into the glue half and back out.
     path = _drag(0.08, 0.12, 30) + _drag(0.12, 0.04, 60)
-    _, dev, frames = _run(HALF.format(effects='"stick_slip"'), path)
+    pipe, dev, frames = _run(HALF.format(effects='"stick_slip"'), path)
     materials = [f[0][0]["material"] for f in frames]
     assert materials[0] == "pass-through" and "glue" in materials
     entered = materials.index("glue")
@@ -87,7 +87,7 @@ def test_entering_friction_grabs_the_pen_and_leaving_glides_back() -> None:
     # Back in free space the pointer converges on the touch and the simulator is dropped.
     last = frames[-1][0][0]
     assert last["material"] == "pass-through" and last["pointer_m"] == last["touch_m"]
-    assert dev.tracks[0].sim is None
+    assert not pipe.holds_simulator(dev, 0)
     jumps = [
         abs(b[0][0]["pointer_px"][0] - a[0][0]["pointer_px"][0])
         for a, b in itertools.pairwise(frames)

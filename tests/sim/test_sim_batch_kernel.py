@@ -1,4 +1,4 @@
-"""BatchSim's compiled exact stepper (numba) against its numpy form and ContactSim."""
+"""BatchSim compiled (numba) against the numpy test oracle, the interpreted step and ContactSim."""
 
 from __future__ import annotations
 
@@ -6,6 +6,7 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
+from numpy_batch_oracle import NumpyBatchOracle
 
 from stiction.drivers.sample import PenSample
 from stiction.errors import ParamError
@@ -51,7 +52,7 @@ def test_compiled_equals_numpy_and_contact_sim(
 ) -> None:
     p = Params(mu_s=mu_s, mu_k=mu_k)
     fast = BatchSim(n, p, substeps=substeps, compiled=True)
-    slow = BatchSim(n, p, substeps=substeps, compiled=False)
+    slow = NumpyBatchOracle(n, p, substeps=substeps)
     sims = [ContactSim(p, substeps=substeps) for _ in range(n)]
     for k, (t, x, y, tip, rng_in) in enumerate(_strokes(n, seed, 70)):
         gain: float | np.ndarray = 1.0 if k < 30 else (1.3 if k < 50 else np.linspace(0.5, 1.5, n))
@@ -78,7 +79,7 @@ def test_compiled_equals_numpy_and_contact_sim(
 def test_long_gap_is_truncated_as_contact_sim_does() -> None:
     p = Params(mu_s=0.3, mu_k=0.1)
     fast = BatchSim(1, p, compiled=True)
-    slow = BatchSim(1, p, compiled=False)
+    slow = NumpyBatchOracle(1, p)
     one = ContactSim(p)
     # A 30 s slow drag: more pieces than _BASE_PIECES allows, so the step is cut.
     for t, x in ((0.0, 0.0), (0.01, 0.05), (30.0, 0.35)):
@@ -92,10 +93,33 @@ def test_long_gap_is_truncated_as_contact_sim_does() -> None:
         assert abs(got.pointer_x - want.pointer_x) <= 1e-12
 
 
-def test_compiled_refusals() -> None:
-    with pytest.raises(ParamError, match="compiled form"):
-        BatchSim(2, Params(), "explicit-euler", compiled=True)
-    with pytest.raises(ParamError, match="compiled form"):
-        BatchSim(2, Params(), "exact", events=False, compiled=True)
-    assert BatchSim(2, Params(), compiled=False)._kernel is None
-    assert BatchSim(2, Params())._kernel is not None
+def test_compiled_and_interpreted_take_the_same_steps() -> None:
+    p = Params(mu_s=0.4, mu_k=0.2)
+    for integrator in ("exact", "implicit-projection", "explicit-euler"):
+        fast = BatchSim(6, p, integrator, compiled=True)
+        slow = BatchSim(6, p, integrator, compiled=False)
+        assert fast.compiled and not slow.compiled
+        for t, x, y, tip, rng_in in _strokes(6, 7, 40):
+            fast.advance(t, x, y, tip, in_range=rng_in)
+            slow.advance(t, x, y, tip, in_range=rng_in)
+        assert np.array_equal(fast.S, slow.S, equal_nan=True)
+
+
+def test_rows_carry_their_own_material() -> None:
+    """One batch, two materials: each row equals a ContactSim on its own material."""
+    glue, ice = Params(mu_s=1.0, mu_k=0.3, k=0.2, C_l=1500.0), Params(mu_s=0.1, mu_k=0.05)
+    b = BatchSim(4, glue)
+    b.set_params(ice, rows=[1, 3])
+    sims = [ContactSim(glue), ContactSim(ice), ContactSim(glue), ContactSim(ice)]
+    for t, x, y, tip, rng_in in _strokes(4, 3, 60):
+        b.advance(t, x, y, tip, in_range=rng_in)
+        for i, sim in enumerate(sims):
+            want = sim.advance(
+                t, [PenSample(t, x[i], y[i], tip=bool(tip[i]), in_range=bool(rng_in[i]))]
+            )
+            got = b.state(i)
+            assert got.phase == want.phase
+            assert abs(got.pointer_x - want.pointer_x) <= 1e-12
+            assert abs(got.string_px - want.string_px) <= 1e-9
+    with pytest.raises(ParamError, match="rows"):
+        b.set_params(ice, rows=[4])

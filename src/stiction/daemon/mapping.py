@@ -105,6 +105,12 @@ class AreaMapping:
             self._ay * x + self._by * y + self._cy,
         )
 
+    def affine(self) -> tuple[float, float, float, float, float, float]:
+        """(ax, bx, cx, ay, by, cy): to_px is (ax x + bx y + cx, ay x + by y + cy).
+
+        For the scene pipeline's compiled batch step, which applies it itself."""
+        return (self._ax, self._bx, self._cx, self._ay, self._by, self._cy)
+
 
 class RelativeMapping:
     """Touchpad-style: each contact moves the cursor by its displacement.

@@ -350,6 +350,7 @@ class Daemon:
                 else:
                     self.realtime = self.opts.realtime
                     log.info("realtime priority=%d", self.realtime)
+        self.pipeline.warm_up()  # compile (or load) the batch step before the clock starts
         # Everything built so far (modules, scene, compiled kernels) lives as
         # long as the daemon: out of the collector's way, so that a full
         # collection during a tick walks only what the ticks allocate.

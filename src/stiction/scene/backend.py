@@ -42,6 +42,11 @@ class SimulatorBackend:
     def params(self, values: Mapping[str, float]) -> Any:
         return self._params_cls.from_mapping({k: v for k, v in values.items() if k in PARAM_NAMES})
 
+    def rows(self) -> Any:
+        """The row stepper for the pipeline's batch step (stiction.sim.rows.RowStepper)."""
+        rows = importlib.import_module("stiction.sim.rows")
+        return rows.RowStepper(self.integrator, self.substeps)
+
     def contact(self, params: Any, string: bool) -> ContactModel:
         return cast(
             ContactModel,

@@ -29,8 +29,8 @@ state at tick time ``t``. ``params`` switches the material from this tick on;
 Non-finite or out-of-order samples are dropped without touching the state and
 counted in ``rejected_samples``. ``state`` is the last returned ContactState.
 
-``BatchSim`` -- many independent contacts stepped together with numpy, equal
-to ContactSim to 1e-12 m.
+``BatchSim`` -- many independent contacts stepped together (one row per
+contact, step.py's step compiled with numba), equal to ContactSim to 1e-12 m.
 
 ``INTEGRATORS`` -- the names accepted: "explicit-euler", "semi-implicit-euler",
 "rk4", "implicit-projection", "exact", and "default" (an alias chosen in
@@ -65,6 +65,12 @@ EXTENSIONS (beyond the contract above, all optional):
   ``stiction.sim.batch.PHASE_CODES``, ``tension()``. Integrators: exact
   (default, with events), explicit-euler, semi-implicit-euler,
   implicit-projection (without events); rk4 has no batch form.
+- The step is written once (``stiction.sim.step``: free functions over one
+  row layout, run as Python by ContactSim, compiled by batch_kernel.py).
+  ``BatchSim.set_params(params, rows=...)`` gives some contacts another
+  material; ``stiction.sim.batch.warm_up()`` compiles (or loads from numba's
+  cache) the batch loops ahead of time; ``stiction.sim.rows.RowStepper`` is
+  the scene pipeline's view of the rows.
 - The exact integrator freezes the friction direction over a step at the
   implicit mid-step velocity direction (see contact.py): exact on straight
   strokes, second order in the turning of the direction in 2-D, and stable
