@@ -40,3 +40,22 @@ def evdev_data() -> Path:
     if not EVDEV_DATA.is_dir():
         pytest.fail(f"shared evdev data not found at {EVDEV_DATA}: clone shared/ beside the repo")
     return EVDEV_DATA
+
+
+def pytest_sessionstart(session: pytest.Session) -> None:
+    """Compile the daemon's numba tick once, before any test starts a daemon.
+
+    A daemon on a cold numba cache compiles for seconds on a background thread
+    while its loop runs the interpreted tick and answers control requests
+    slowly; tests with one-second client timeouts would then depend on which
+    test happened to start the first daemon. Compiled here, in-process, the
+    cache is written and every daemon the tests start loads it.
+    """
+    from stiction.scene.backend import SimulatorBackend
+    from stiction.scene.load import default_scene
+    from stiction.scene.pipeline import Pipeline
+
+    backend = SimulatorBackend("default", 1)
+    pipeline = Pipeline(default_scene(), backend, {**backend.defaults(), "rate": 100.0})
+    if not pipeline.warm_up(wait=600.0):
+        raise pytest.UsageError("the numba tick did not compile within 10 minutes")
