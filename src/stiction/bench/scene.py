@@ -6,7 +6,8 @@ times one tick of the compiled pipeline (stiction.scene.pipeline) for three
 scenes -- pass-through, stick-slip only, stick-slip with the string -- and,
 in the same run, the naive alternative: the full simulation with the string
 for every contact whatever the scene asks. Prints the median cost per tick
-and the ratio naive / compiled, and writes bench/results/scene.{json,txt,png}.
+and the ratio naive / compiled, and writes scene.{json,txt,png} in the
+results folder (--save: bench/results/).
 """
 
 from __future__ import annotations
@@ -15,21 +16,17 @@ import argparse
 import gc
 import json
 import math
-import os
 import statistics
 import time
-from pathlib import Path
+from typing import Any
 
+from stiction.bench._support import results_dir
 from stiction.daemon.mapping import AreaMapping, MappingConfig
 from stiction.drivers.sample import PenSample
 from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import parse_scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
 SIZE = (0.2, 0.15)
 DISPLAY = (1920, 1080)
 SCENES = {
@@ -141,15 +138,16 @@ def main(argv: list[str]) -> int:
             f"{r['naive_over_compiled']:>15.1f}x{'yes' if r['fits_10ms_tick'] else 'NO':>9}"
         )
     table = "\n".join(lines)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "scene.txt").write_text(table + "\n")
-    (RESULTS / "scene.json").write_text(json.dumps({"rows": rows, "quick": args.quick}, indent=2))
+    (results_dir() / "scene.txt").write_text(table + "\n")
+    (results_dir() / "scene.json").write_text(
+        json.dumps({"rows": rows, "quick": args.quick}, indent=2)
+    )
     _plot(rows)
     print(json.dumps({"rows": rows}, indent=2) if args.json else table)
     return 0
 
 
-def _plot(rows: list[dict[str, object]]) -> None:
+def _plot(rows: list[dict[str, Any]]) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -167,5 +165,5 @@ def _plot(rows: list[dict[str, object]]) -> None:
     ax.set_title("stiction scene pipeline: cost per tick")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(RESULTS / "scene.png", dpi=100)
+    fig.savefig(results_dir() / "scene.png", dpi=100)
     plt.close(fig)
