@@ -112,7 +112,8 @@ def build_parser() -> argparse.ArgumentParser:
         ".png) to a results folder, and says which files it wrote. The folder is --out DIR; "
         "else $STICTION_BENCH_RESULTS; else $XDG_CACHE_HOME/stiction/bench (~/.cache/...). "
         "--save writes the committed figures in the source checkout's bench/results/ instead. "
-        "Needs the bench extra: pip install 'stiction[bench]'.",
+        "Every benchmark also takes --json (print its results as JSON) and its own flags: "
+        "stiction bench NAME --help. Needs the bench extra: pip install 'stiction[bench]'.",
     )
     bench.add_argument("--out", metavar="DIR", help="write the results into DIR")
     bench.add_argument(

@@ -7,7 +7,7 @@ tick with no event is a handful of multiply-adds on locals.
 
 Internally slip has two modes: moving (friction -F_k along the direction of
 motion) and resting-in-slip (the pen is at rest but the spring pulls harder
-than static friction holds; model.md: it moves again once the net force
+than static friction holds; docs/design/model.md: it moves again once the net force
 exceeds F_k, it sticks once T <= F_s). Both are published as phase "slip".
 """
 
