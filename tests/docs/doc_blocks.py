@@ -187,8 +187,7 @@ def strip_comment(cmd: str) -> str:
 
 
 def directive_for(block: Block, cmd: str) -> Directive | None:
+    """The directive with the longest prefix the command starts with."""
     bare = strip_comment(cmd)
-    for d in block.directives:
-        if bare.startswith(d.prefix):
-            return d
-    return None
+    hits = [d for d in block.directives if bare.startswith(d.prefix)]
+    return max(hits, key=lambda d: len(d.prefix), default=None)

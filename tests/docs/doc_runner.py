@@ -16,6 +16,7 @@ from __future__ import annotations
 import fcntl
 import json
 import os
+import re
 import shutil
 import signal
 import socket
@@ -35,7 +36,7 @@ PLACEHOLDERS = {
     "REC.evemu": SHARED / "evdev" / "wacom-cintiq-13hd-touch-pen.evemu",
     "my-scene.toml": REPO / "src" / "stiction" / "scene" / "examples" / "demo.toml",
 }
-READY_TIMEOUT = 60.0  # a background command must show life within this
+READY_TIMEOUT = 30.0  # a background command must show life within this
 COMMAND_TIMEOUT = 120.0
 
 
@@ -86,8 +87,9 @@ def prepare(scratch: Path) -> dict[str, str]:
 class Background:
     """A command left running (a daemon, a server, a recorder) until its block ends."""
 
-    def __init__(self, cmd: str, cwd: Path, env: dict[str, str]) -> None:
+    def __init__(self, cmd: str, cwd: Path, env: dict[str, str], until: str = "") -> None:
         self.cmd = cmd
+        self.until = until  # ready once the output holds this; "" = any first line
         self.out: list[str] = []
         self.ready = threading.Event()
         self.before = {p.name: p.stat().st_size for p in cwd.iterdir()}
@@ -108,14 +110,15 @@ class Background:
         assert self.proc.stdout is not None
         for line in self.proc.stdout:
             self.out.append(line)
-            self.ready.set()
+            if self.until in line:
+                self.ready.set()
         self.ready.set()  # it ended: that is news too
 
     def wait_ready(self) -> str | None:
-        """Wait for its first line of output (or its end); None when it shows life."""
+        """Wait for its first line of output (or the `until` text, or its end); None when ready."""
         # A recorder prints nothing until it stops, but creates its output at once.
         while not self.ready.wait(0.05):
-            if self._new_file():
+            if not self.until and self._new_file():
                 break
             if self.proc.poll() is not None:
                 break
@@ -159,6 +162,26 @@ class Background:
         return None
 
 
+def handles_sigterm(pid: int) -> str | None:
+    """None once stictiond has installed its SIGTERM/SIGINT handlers, that is, runs its loop.
+
+    Its "started" line comes just before it installs them; a Ctrl-C in that
+    instant is a race no reader meets, so the test waits for the handlers
+    (SigCgt in /proc/PID/status: Python catches SIGTERM only once told to).
+    """
+    status = Path(f"/proc/{pid}/status")
+    for _ in range(600):
+        try:
+            lines = status.read_text().splitlines()
+            caught = next(int(x.split()[1], 16) for x in lines if x.startswith("SigCgt:"))
+        except (OSError, StopIteration):
+            return "it ended before running its loop"
+        if caught & (1 << (signal.SIGTERM - 1)):
+            return None
+        threading.Event().wait(0.05)
+    return "its signal handlers were not installed within 30 s"
+
+
 def _key(cmd: str) -> str:
     """Two background commands with the same key are alternatives: the later replaces."""
     words = strip_comment(cmd).split()
@@ -192,8 +215,11 @@ def run_block(block: Block, scratch: Path, running: dict[str, Background]) -> li
                 if problem:
                     res.update(status="fail", detail=f"stopping the previous {key}: {problem}")
                     continue
-            bg = Background(cmd, scratch, env)
+            until = re.fullmatch(r'until "(.*)"', d.reason)
+            bg = Background(cmd, scratch, env, until.group(1) if until else "")
             problem = bg.wait_ready()
+            if problem is None and key == "stictiond":
+                problem = handles_sigterm(bg.proc.pid)
             running[key] = bg
             if problem:
                 res.update(status="fail", detail=problem)

@@ -23,7 +23,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from doc_blocks import REPO, Block, MarkerError, all_blocks, pages, parse_page
+from doc_blocks import REPO, Block, Directive, MarkerError, all_blocks, pages, parse_page
 
 from stiction.cli import build_parser as stiction_parser
 from stiction.daemon.main import build_parser as stictiond_parser
@@ -158,3 +158,15 @@ def test_run_block(block: Block, session: dict[str, list[dict[str, Any]]]) -> No
         pytest.xfail("; ".join(f"`{r['cmd']}`: {r['detail'].splitlines()[0]}" for r in xfailed))
     if all(r["status"] == "skip" for r in results):
         pytest.skip("; ".join(r["detail"] for r in results))
+
+
+def test_the_runner_fails_a_failing_command_and_changed_output(tmp_path: Path) -> None:
+    """The checks behind test_run_block can fail: exit status, output, xfail that passes."""
+    import doc_runner
+
+    block = Block("probe.md", 1, "$ echo one\ntwo\n$ false\n$ true\n", None, kind="run")
+    block.directives = [Directive("xfail", "true", "a known bug")]
+    got = [r["status"] for r in doc_runner.run_block(block, tmp_path / "s", {})]
+    assert got == ["fail", "fail", "xpassed"]
+    block = Block("probe.md", 1, "$ printf 'a\\nb\\nc\\n'\na\n...\nc\n", None, kind="run")
+    assert [r["status"] for r in doc_runner.run_block(block, tmp_path / "s", {})] == ["ok"]
