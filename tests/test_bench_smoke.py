@@ -202,3 +202,61 @@ def test_missing_bench_extra_names_the_install_command(
     assert err.count("\n") == 1
     assert "stiction_no_such_module" in err and "pip install 'stiction[bench]'" in err
     assert not any(tmp_path.iterdir())
+
+
+def test_the_wheel_ships_the_benchmarks(tmp_path: Path) -> None:
+    """`pip install .` then `stiction bench` works outside the checkout (issue 13).
+
+    The wheel is built from this checkout and unpacked (it is pure Python, so
+    that is what installing it does); its stiction is imported from there, with
+    the dependencies of this environment, from a folder outside the checkout.
+    """
+    wheels = tmp_path / "wheels"
+    build = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert build.returncode == 0, build.stderr[-3000:]
+    (wheel,) = wheels.glob("stiction-*.whl")
+    site = tmp_path / "site"
+    import zipfile
+
+    with zipfile.ZipFile(wheel) as zf:
+        names = zf.namelist()
+        zf.extractall(site)
+    assert {f"stiction/bench/{n}.py" for n in SMOKES} <= set(names)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "STICTION_BENCH_RESULTS"}
+    env.update(PYTHONPATH=str(site), XDG_CACHE_HOME=str(tmp_path / "cache"))
+    where = subprocess.run(
+        [sys.executable, "-c", "import stiction; print(stiction.__file__)"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert where.stdout.startswith(str(site)), where
+    run = subprocess.run(
+        [sys.executable, "-m", "stiction", "bench", "scene", "--quick"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = tmp_path / "cache" / "stiction" / "bench"
+    assert (out / "scene.json").is_file() and f"in {out}" in run.stderr
+    # An installed package has no committed figures to overwrite.
+    save = subprocess.run(
+        [sys.executable, "-m", "stiction", "bench", "scene", "--save"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert save.returncode == 2 and "source checkout" in save.stderr
