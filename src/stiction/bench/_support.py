@@ -103,7 +103,7 @@ def missing_extra() -> list[str]:
     return missing
 
 
-class _NoBar:
+class NoBar:
     """Stands in for a tqdm bar when stderr is not a terminal."""
 
     def update(self, n: int = 1) -> None:
@@ -115,7 +115,7 @@ class _NoBar:
     def close(self) -> None:
         pass
 
-    def __enter__(self) -> _NoBar:
+    def __enter__(self) -> NoBar:
         return self
 
     def __exit__(
@@ -134,7 +134,7 @@ def progress(total: float, desc: str, unit: str = "it") -> Any:
     pipes get no carriage-return noise.
     """
     if not sys.stderr.isatty():
-        return _NoBar()
+        return NoBar()
     from tqdm import tqdm
 
     return tqdm(total=total, desc=desc, unit=unit, file=sys.stderr, leave=False)

@@ -57,7 +57,7 @@ from typing import Any
 
 import numpy as np
 
-from stiction.bench._support import results_dir
+from stiction.bench._support import NoBar, progress, results_dir
 
 DEFAULT_SECONDS = 20.0
 
@@ -276,7 +276,20 @@ def run_daemon(
     daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
     daemon.open()
     ticks: list[int] = []
-    daemon.on_tick = ticks.append
+    # Progress on a terminal, one step a second (runs last up to 10 minutes);
+    # elsewhere the bar is a no-op and the hook stays ticks.append alone.
+    bar = progress(seconds, f"stictiond {'idle ' if spec is None else ''}run", "s")
+    if isinstance(bar, NoBar):
+        daemon.on_tick = ticks.append
+    else:
+        per_second = max(1, round(rate))
+
+        def on_tick(n: int) -> None:
+            ticks.append(n)
+            if n % per_second == 0:
+                bar.update(1)
+
+        daemon.on_tick = on_tick
     cpu0 = time.process_time()
     wall0 = time.monotonic()
     try:
@@ -286,6 +299,7 @@ def run_daemon(
         jitter = daemon.jitter.values().copy()
         start = daemon.schedule.start
     finally:
+        bar.close()
         daemon.close()
     return stats, cpu, start, jitter, np.asarray(ticks, dtype=np.int64)
 
