@@ -42,9 +42,12 @@ typecheck: venv
 pytest: venv
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
-# Benchmarks are not part of `make test`: they measure, tests assert.
+# Benchmarks are not part of `make test`: they measure, tests assert. Results go
+# to ~/.cache/stiction/bench/; `make bench BENCH_ARGS=--save` updates the
+# committed figures in bench/results/ that the docs quote.
+BENCH_ARGS ?=
 bench: venv
-	$(BIN)/stiction bench all
+	$(BIN)/stiction bench all $(BENCH_ARGS)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .hypothesis

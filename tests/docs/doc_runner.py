@@ -116,7 +116,8 @@ class Background:
 
     def wait_ready(self) -> str | None:
         """Wait for its first line of output (or the `until` text, or its end); None when ready."""
-        # A recorder prints nothing until it stops, but creates its output at once.
+        # A recorder prints nothing until it stops; it shows life by writing a
+        # file, and has data once that file grows past its first size.
         while not self.ready.wait(0.05):
             if not self.until and self._new_file():
                 break
@@ -139,11 +140,19 @@ class Background:
             self._t0 = now
         return now - self._t0
 
+    _first_sizes: dict[str, int] | None = None
+
     def _new_file(self) -> bool:
-        return any(
-            p.name not in self.before and p.is_file() and p.stat().st_size > 0
+        sizes = {
+            p.name: p.stat().st_size
             for p in self.cwd.iterdir()
-        )
+            if p.name not in self.before and p.is_file()
+        }
+        if self._first_sizes is None:
+            if sizes:
+                self._first_sizes = sizes
+            return False
+        return any(size > self._first_sizes.get(n, 0) for n, size in sizes.items())
 
     def stop(self) -> str | None:
         """Ctrl-C, as a reader would; None when it ends cleanly."""
