@@ -37,7 +37,7 @@ PLACEHOLDERS = {
     "my-scene.toml": REPO / "src" / "stiction" / "scene" / "examples" / "demo.toml",
 }
 READY_TIMEOUT = 30.0  # a background command must show life within this
-COMMAND_TIMEOUT = 120.0
+COMMAND_TIMEOUT = 60.0
 
 
 def loopback_up() -> None:

@@ -143,6 +143,7 @@ def session(tmp_path_factory: pytest.TempPathFactory) -> dict[str, list[dict[str
     return result
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("block", _ids("run"), ids=lambda b: b.id)
 def test_run_block(block: Block, session: dict[str, list[dict[str, Any]]]) -> None:
     results = session[block.id]
