@@ -1,6 +1,7 @@
 """Runs the docs' `run` blocks inside a private network namespace; writes one result per command.
 
-Started by test_doc_commands.py as `unshare -rn python doc_runner.py SCRATCH OUT.json`.
+Started by test_doc_commands.py as `unshare -rn python doc_runner.py SCRATCH OUT.json`
+(or, where namespaces are not allowed, with `--host-network` and no unshare).
 The namespace has its own loopback, so the commands run exactly as the page
 writes them, on the documented default endpoints (tcp://127.0.0.1:5556 and
 5557, port 8765), without meeting any other daemon on the machine and without
@@ -273,7 +274,8 @@ def stop_all(running: dict[str, Background], results: list[dict[str, str]]) -> N
 
 def main() -> int:
     scratch, out = Path(sys.argv[1]), Path(sys.argv[2])
-    loopback_up()
+    if "--host-network" not in sys.argv[3:]:  # else: no namespace allowed, ports checked free
+        loopback_up()
     blocks = [b for b in all_blocks() if b.kind == "run"]
     report: dict[str, list[dict[str, str]]] = {}
     running: dict[str, Background] = {}
