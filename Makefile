@@ -24,7 +24,7 @@ venv: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install -q --upgrade pip
-	$(BIN)/python -m pip install -q -e '.[test]'
+	$(BIN)/python -m pip install -q -e '.[test,bench]'
 	touch $@
 
 node-deps:
@@ -33,8 +33,8 @@ node-deps:
 	fi
 
 lint: venv
-	$(BIN)/ruff check src tests bench
-	$(BIN)/ruff format --check src tests bench
+	$(BIN)/ruff check src tests
+	$(BIN)/ruff format --check src tests
 
 typecheck: venv
 	$(BIN)/mypy
@@ -42,9 +42,12 @@ typecheck: venv
 pytest: venv
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
-# Benchmarks are not part of `make test`: they measure, tests assert.
+# Benchmarks are not part of `make test`: they measure, tests assert. Results go
+# to ~/.cache/stiction/bench/; `make bench BENCH_ARGS=--save` updates the
+# committed figures in bench/results/ that the docs quote.
+BENCH_ARGS ?=
 bench: venv
-	$(BIN)/stiction bench all
+	$(BIN)/stiction bench all $(BENCH_ARGS)
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .hypothesis

@@ -1,9 +1,10 @@
 """Every benchmark runs, in a tiny configuration, so a refactor cannot break one unnoticed.
 
-Each runs as `stiction bench NAME` in a subprocess (the CLI loads bench/NAME.py by
-path, exactly as a user would run it) with STICTION_BENCH_RESULTS pointing at
-tmp_path: bench/results/ holds the committed figures the docs quote, and must come
-out byte for byte unchanged. Only the shape of the results is checked; timings
+Each runs as `stiction bench NAME` in a subprocess (the CLI imports
+stiction.bench.NAME, exactly as for a user who installed the package) with its
+results folder in tmp_path (half of them by --out, half by
+STICTION_BENCH_RESULTS): bench/results/ holds the committed figures the docs
+quote, and must come out byte for byte unchanged. Only the shape of the results is checked; timings
 from a run this small mean nothing and are never asserted.
 """
 
@@ -20,11 +21,15 @@ from typing import NamedTuple
 
 import pytest
 
-from stiction.cli import bench_dir
+import stiction.bench
+from stiction import cli
+from stiction.bench import _support
+from stiction.errors import StictionError
 
 pytestmark = pytest.mark.slow
 
-COMMITTED = bench_dir() / "results"
+REPO = Path(__file__).resolve().parents[1]
+COMMITTED = REPO / "bench" / "results"
 
 
 class Smoke(NamedTuple):
@@ -92,8 +97,7 @@ def _hashes(folder: Path) -> dict[str, str]:
 
 
 def test_every_benchmark_has_a_smoke_run() -> None:
-    names = {p.stem for p in bench_dir().glob("*.py") if not p.stem.startswith("_")}
-    assert names == set(SMOKES)
+    assert set(stiction.bench.names()) == set(SMOKES)
 
 
 @pytest.mark.parametrize("name", sorted(SMOKES))
@@ -106,9 +110,16 @@ def test_bench_smoke(name: str, tmp_path: Path, request: pytest.FixtureRequest) 
     # The daemon benchmark leaves its sockets in a mkdtemp() folder: keep it out
     # of /tmp. Short, since ipc:// paths are limited to ~100 characters.
     with tempfile.TemporaryDirectory(prefix="sb-") as scratch:
-        env = {**os.environ, "STICTION_BENCH_RESULTS": str(out), "TMPDIR": scratch}
+        env = {**os.environ, "TMPDIR": scratch}
+        by_flag = sorted(SMOKES).index(name) % 2 == 0
+        if by_flag:
+            env.pop("STICTION_BENCH_RESULTS", None)
+            where = ["--out", str(out)]
+        else:
+            env["STICTION_BENCH_RESULTS"] = str(out)
+            where = []
         run = subprocess.run(
-            [sys.executable, "-m", "stiction", "bench", name, *smoke.args, "--json"],
+            [sys.executable, "-m", "stiction", "bench", name, *where, *smoke.args, "--json"],
             env=env,
             capture_output=True,
             text=True,
@@ -121,6 +132,8 @@ def test_bench_smoke(name: str, tmp_path: Path, request: pytest.FixtureRequest) 
     if smoke.png:
         expected.add(f"{smoke.stem}.png")
     assert {p.name for p in out.iterdir()} == expected
+    # It says where it wrote, on stderr (stdout is the benchmark's own).
+    assert f"wrote {', '.join(sorted(expected))} in {out}" in run.stderr
     assert (out / f"{smoke.stem}.txt").read_text().strip()
     result = json.loads((out / f"{smoke.stem}.json").read_text())
     assert smoke.keys <= result.keys()
@@ -129,3 +142,121 @@ def test_bench_smoke(name: str, tmp_path: Path, request: pytest.FixtureRequest) 
     # --json prints JSON (accuracy, scene: one object per setting or row and line).
     lines = run.stdout.splitlines() if name in ("accuracy", "scene") else [run.stdout]
     assert lines and all(json.loads(line) for line in lines)
+
+
+def _bench(args: list[str], env: dict[str, str]) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "stiction", "bench", *args],
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_default_results_go_to_the_user_cache_not_the_checkout(tmp_path: Path) -> None:
+    """No flag, no STICTION_BENCH_RESULTS: $XDG_CACHE_HOME/stiction/bench, and it says so."""
+    env = {k: v for k, v in os.environ.items() if k != "STICTION_BENCH_RESULTS"}
+    env["XDG_CACHE_HOME"] = str(tmp_path / "cache")
+    before = _hashes(COMMITTED)
+    run = _bench(["scene", "--quick"], env)
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = tmp_path / "cache" / "stiction" / "bench"
+    assert {p.name for p in out.iterdir()} == {"scene.txt", "scene.json", "scene.png"}
+    assert f"in {out}" in run.stderr
+    assert _hashes(COMMITTED) == before
+
+
+def test_save_refuses_a_quick_run(tmp_path: Path) -> None:
+    before = _hashes(COMMITTED)
+    run = _bench(["scene", "--save", "--quick"], dict(os.environ))
+    assert run.returncode == 2
+    assert "--save" in run.stderr and "--quick" in run.stderr
+    assert "Traceback" not in run.stderr
+    assert _hashes(COMMITTED) == before
+
+
+def test_save_outside_a_checkout_is_a_clear_error(monkeypatch: pytest.MonkeyPatch) -> None:
+    """An installed package has no bench/results/ to save into: one line, exit 2."""
+    monkeypatch.setattr(_support, "source_checkout", lambda: None)
+    with pytest.raises(StictionError, match=r"--save .*source checkout.*--out DIR"):
+        _support.committed_results()
+
+
+def test_save_targets_the_checkouts_committed_results() -> None:
+    assert _support.committed_results() == COMMITTED
+
+
+def test_out_and_save_exclude_each_other(capsys: pytest.CaptureFixture[str]) -> None:
+    assert cli.main(["bench", "--out", "/nonexistent", "scene", "--save"]) == 2
+    assert "--out and --save" in capsys.readouterr().err
+
+
+def test_missing_bench_extra_names_the_install_command(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """Without the extra's modules: one line naming pip install 'stiction[bench]', exit 2."""
+    monkeypatch.setattr(_support, "EXTRA_MODULES", ("stiction_no_such_module", "tqdm"))
+    assert cli.main(["bench", "scene", "--out", str(tmp_path), "--quick"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1
+    assert "stiction_no_such_module" in err and "pip install 'stiction[bench]'" in err
+    assert not any(tmp_path.iterdir())
+
+
+def test_the_wheel_ships_the_benchmarks(tmp_path: Path) -> None:
+    """`pip install .` then `stiction bench` works outside the checkout (issue 13).
+
+    The wheel is built from this checkout and unpacked (it is pure Python, so
+    that is what installing it does); its stiction is imported from there, with
+    the dependencies of this environment, from a folder outside the checkout.
+    """
+    wheels = tmp_path / "wheels"
+    build = subprocess.run(
+        [sys.executable, "-m", "pip", "wheel", "--no-deps", "-q", "-w", str(wheels), str(REPO)],
+        capture_output=True,
+        text=True,
+        timeout=300,
+    )
+    assert build.returncode == 0, build.stderr[-3000:]
+    (wheel,) = wheels.glob("stiction-*.whl")
+    site = tmp_path / "site"
+    import zipfile
+
+    with zipfile.ZipFile(wheel) as zf:
+        names = zf.namelist()
+        zf.extractall(site)
+    assert {f"stiction/bench/{n}.py" for n in SMOKES} <= set(names)
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    env = {k: v for k, v in os.environ.items() if k != "STICTION_BENCH_RESULTS"}
+    env.update(PYTHONPATH=str(site), XDG_CACHE_HOME=str(tmp_path / "cache"))
+    where = subprocess.run(
+        [sys.executable, "-c", "import stiction; print(stiction.__file__)"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+    )
+    assert where.stdout.startswith(str(site)), where
+    run = subprocess.run(
+        [sys.executable, "-m", "stiction", "bench", "scene", "--quick"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert run.returncode == 0, run.stderr[-3000:]
+    out = tmp_path / "cache" / "stiction" / "bench"
+    assert (out / "scene.json").is_file() and f"in {out}" in run.stderr
+    # An installed package has no committed figures to overwrite.
+    save = subprocess.run(
+        [sys.executable, "-m", "stiction", "bench", "scene", "--save"],
+        cwd=elsewhere,
+        env=env,
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert save.returncode == 2 and "source checkout" in save.stderr

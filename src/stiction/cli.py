@@ -32,41 +32,66 @@ COMMAND_MODULES = (
 )
 
 
-def bench_dir() -> Path:
-    """bench/ of the source checkout this package runs from."""
-    return Path(__file__).resolve().parents[2] / "bench"
+def _results_snapshot(folder: Path) -> dict[Path, tuple[int, int]]:
+    if not folder.is_dir():
+        return {}
+    return {p: (p.stat().st_mtime_ns, p.stat().st_size) for p in folder.iterdir() if p.is_file()}
 
 
-def _bench_names() -> list[str]:
-    d = bench_dir()
-    if not d.is_dir():
-        return []
-    return sorted(p.stem for p in d.glob("*.py") if not p.stem.startswith("_"))
+def _bench_target(args: argparse.Namespace, rest: list[str]) -> Path:
+    """The results folder of this run: --out, --save, else the per-user default."""
+    from stiction.bench import _support
+
+    if args.out is not None and args.save:
+        raise StictionError("--out and --save exclude each other: --save means bench/results/")
+    if args.save:
+        if "--quick" in rest:
+            raise StictionError(
+                "--save: a --quick run is a smoke run and never replaces the committed figures"
+            )
+        return _support.committed_results()
+    if args.out is not None:
+        return Path(args.out)
+    return _support.default_results()
 
 
 def _run_bench(args: argparse.Namespace) -> int:
-    import importlib.util
+    from stiction import bench
+    from stiction.bench import _support
 
-    names = _bench_names()
-    if not names:
-        raise StictionError(
-            f"no benchmarks found in {bench_dir()}: benchmarks run from a source checkout"
-        )
+    # --out/--save may come before or after the benchmark's name.
+    own = argparse.ArgumentParser(prog="stiction bench", add_help=False, allow_abbrev=False)
+    own.add_argument("--out", metavar="DIR")
+    own.add_argument("--save", action="store_true")
+    late, rest = own.parse_known_args(args.rest)
+    args.out = late.out if late.out is not None else args.out
+    args.save = args.save or late.save
+
+    names = bench.names()
     wanted = names if args.name == "all" else [args.name]
-    status = 0
     for name in wanted:
         if name not in names:
             raise StictionError(f"unknown benchmark {name!r}; known: {', '.join(names)}, all")
-        spec = importlib.util.spec_from_file_location(
-            f"stiction_bench_{name}", bench_dir() / f"{name}.py"
-        )
-        assert spec is not None and spec.loader is not None
-        module = importlib.util.module_from_spec(spec)
-        # Registered before running, as an import would, so that dataclasses
-        # and pickling inside the benchmark can find their own module.
-        sys.modules[spec.name] = module
-        spec.loader.exec_module(module)
-        status |= int(module.main(list(args.rest)))
+    missing = _support.missing_extra()
+    if missing:
+        raise StictionError(f"benchmarks need {', '.join(missing)}: {_support.EXTRA_HINT}")
+    target = _bench_target(args, rest)
+    _support.set_results_dir(target)
+    status = 0
+    try:
+        for name in wanted:
+            before = _results_snapshot(target)
+            module = importlib.import_module(f"stiction.bench.{name}")
+            status |= int(module.main(list(rest)))
+            after = _results_snapshot(target)
+            written = sorted(p.name for p, stamp in after.items() if before.get(p) != stamp)
+            if written:
+                print(
+                    f"stiction bench {name}: wrote {', '.join(written)} in {target}",
+                    file=sys.stderr,
+                )
+    finally:
+        _support.set_results_dir(None)
     return status
 
 
@@ -82,9 +107,19 @@ def build_parser() -> argparse.ArgumentParser:
         importlib.import_module(name).register(sub)
     bench = sub.add_parser(
         "bench",
-        help="run a benchmark from bench/ (accuracy, hid, evdev, daemon, ... or all)",
-        description="Run a benchmark; it prints a table and writes its figures to bench/results/ "
-        "(or to $STICTION_BENCH_RESULTS when set).",
+        help="run a benchmark (accuracy, hid, evdev, daemon, ... or all)",
+        description="Run a benchmark: it prints a table and writes its figures (.txt, .json, "
+        ".png) to a results folder, and says which files it wrote. The folder is --out DIR; "
+        "else $STICTION_BENCH_RESULTS; else $XDG_CACHE_HOME/stiction/bench (~/.cache/...). "
+        "--save writes the committed figures in the source checkout's bench/results/ instead. "
+        "Every benchmark also takes --json (print its results as JSON) and its own flags: "
+        "stiction bench NAME --help. Needs the bench extra: pip install 'stiction[bench]'.",
+    )
+    bench.add_argument("--out", metavar="DIR", help="write the results into DIR")
+    bench.add_argument(
+        "--save",
+        action="store_true",
+        help="write into the checkout's bench/results/ (the figures the docs quote)",
     )
     bench.add_argument("name", help="benchmark name, or 'all'")
     bench.add_argument("rest", nargs=argparse.REMAINDER, help="arguments for the benchmark")

@@ -1,6 +1,6 @@
 """Surface metres -> display pixels, per device.
 
-The simulator works in surface metres (SI, model.md); regions and renderers
+The simulator works in surface metres (SI, docs/design/model.md); regions and renderers
 work in display pixels. Tablets and touchscreens use *area* mapping: a
 rectangle of the surface onto a rectangle of the screen, optionally rotated
 (a tablet turned for left-handed use) and with its aspect ratio kept

@@ -8,7 +8,7 @@ absolute deadline. Anything a user or device can get wrong is logged and
 counted; the loop keeps the last good state and carries on.
 
 Every tick that runs publishes one frame per open device, and ticks are
-numbered consecutively (architecture.md's frame contract). But when no device
+numbered consecutively (docs/design/architecture.md's frame contract). But when no device
 has a contact, input waiting, or anything new to say, the loop stops ticking
 and sleeps until a producer wakes it (stiction.daemon.wake), running one
 keep-alive tick every `keepalive` seconds meanwhile: the deadlines it sleeps

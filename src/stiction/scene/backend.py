@@ -35,7 +35,7 @@ class SimulatorBackend:
         self.substeps = substeps
 
     def defaults(self) -> dict[str, float]:
-        """The simulator's own default parameters (model.md's table)."""
+        """The simulator's own default parameters (docs/design/model.md's table)."""
         p = self._params_cls()
         return {name: float(getattr(p, name)) for name in PARAM_NAMES}
 

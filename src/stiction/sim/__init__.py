@@ -1,4 +1,4 @@
-"""The stick-slip model of docs (shared design model.md): parameters, integrators, batch stepping.
+"""The stick-slip model of docs (docs/design/model.md): parameters, integrators, batch stepping.
 
 CONTRACT (other packages code against this; keep it stable, extend it freely):
 
@@ -22,7 +22,7 @@ vector from pointer toward touch, (0.0, 0.0) when undefined).
 ``ContactSim(params, integrator="default", substeps=1, events=None, string=True)``
 -- one contact. ``advance(t, samples, *, params=None, load_gain=1.0) ->
 ContactState`` takes every input sample with previous_tick < sample.t <= t, in
-order, follows the piecewise-linear touch path they define (model.md "Input
+order, follows the piecewise-linear touch path they define (docs/design/model.md "Input
 path"), handles touch-down / touch-up / hover inside the tick, and returns the
 state at tick time ``t``. ``params`` switches the material from this tick on;
 ``load_gain`` scales the normal load N = m*g*load_gain (pressure_load effect).

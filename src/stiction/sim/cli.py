@@ -1,4 +1,4 @@
-"""`stiction simulate`: replay a trace CSV through the simulator (architecture.md)."""
+"""`stiction simulate`: replay a trace CSV through the simulator (docs/design/architecture.md)."""
 
 from __future__ import annotations
 

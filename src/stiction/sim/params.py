@@ -48,7 +48,7 @@ def _check(name: str, value: Any) -> float:
 
 @dataclass(frozen=True, slots=True)
 class Params:
-    """The constants of model.md; defaults are the paper's (m is this project's choice)."""
+    """The constants of docs/design/model.md; defaults are the paper's (m is ours)."""
 
     k: float = 0.1
     m: float = 1.0e-4

@@ -1,6 +1,6 @@
 """`stiction evdev decode|read|describe`: look at evdev recordings and devices frame by frame.
 
-`decode` is the interface of architecture.md (one JSON object per SYN_REPORT
+`decode` is the interface of docs/design/architecture.md (one JSON object per SYN_REPORT
 frame); `read` prints the same objects from a live node, so a recording and
 the device it was made on can be compared line by line.
 """

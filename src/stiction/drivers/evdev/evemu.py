@@ -168,7 +168,7 @@ def write_events(events: list[Event]) -> str:
     """evemu `E:` lines with microseconds written without leading zeros.
 
     Both evemu (``%06u``) and umockdev read these correctly; umockdev reads a
-    zero-padded usec field as octal (see shared/design/umockdev-evdev.md).
+    zero-padded usec field as octal (see docs/design/umockdev-evdev.md).
     """
     return "".join(f"E: {s}.{u} {t:04x} {c:04x} {v}\n" for s, u, t, c, v in events)
 

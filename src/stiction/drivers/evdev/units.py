@@ -63,7 +63,7 @@ class SurfaceUnits:
             self.y_axis.maximum,
         )
         # Divided, not multiplied by a reciprocal: x_m = (x - min) / res / 1000 exactly as
-        # architecture.md writes it, so every implementation agrees to the last bit.
+        # docs/design/architecture.md writes it, so every implementation agrees to the last bit.
         self._rx = rx if rx > 0 else 1.0
         self._ry = ry if ry > 0 else 1.0
         press = ecodes.ABS_MT_PRESSURE if desc.is_multitouch else ecodes.ABS_PRESSURE
@@ -127,7 +127,7 @@ class SurfaceUnits:
         )
 
     def contact_json(self, c: Contact) -> dict[str, object]:
-        """The `stiction evdev decode --json` form of a contact (architecture.md)."""
+        """The `stiction evdev decode --json` form of a contact (docs/design/architecture.md)."""
         return {
             "slot": c.slot,
             "tracking_id": c.tracking_id,

@@ -1,4 +1,4 @@
-"""`stiction hid describe` and `stiction hid decode` (formats in architecture.md)."""
+"""`stiction hid describe` and `stiction hid decode` (formats in docs/design/architecture.md)."""
 
 from __future__ import annotations
 

@@ -9,7 +9,7 @@ exact integrator's closed form on straight (1-D) strokes, a converged
 256-substep solution on 2-D strokes (checked against 512 substeps and against
 RK4 with 256 substeps; both differences are printed). Also shows what
 following every input sample buys over tick endpoints only, and writes
-bench/results/accuracy.{json,txt,png}.
+accuracy.{json,txt,png} in the results folder (--save: bench/results/).
 """
 
 import argparse
@@ -21,21 +21,20 @@ import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from stiction.bench._support import progress, results_dir
 from stiction.sim import BatchSim, ContactSim, ContactState, Params, Touch
 from stiction.sim.integrators import DEFAULT_INTEGRATOR
 
 PX = 0.0254 / 220.0  # one pixel at 220 ppi, in metres
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
 RATE_IN = 200.0  # tablet report rate: two samples per 100 Hz tick
 UNIT = 5e-6  # one device unit of a 200 lines/mm tablet (sensor noise)
 
 Path2 = Callable[[float], tuple[float, float]]
+Ticks = list[tuple[float, list[Touch]]]  # (tick time, samples since the last tick)
 
 
 @dataclass(frozen=True)
@@ -43,6 +42,19 @@ class Stroke:
     name: str
     samples: tuple[Touch, ...]
     straight: bool
+
+
+def _line(v: float, t_end: float) -> Path2:
+    """A straight stroke at v m/s that stops at t_end."""
+    return lambda t: (0.05 + v * min(t, t_end), 0.05)
+
+
+def _circle(f: float, r: float) -> Path2:
+    """A circle of radius r m at f turns per second."""
+    return lambda t: (
+        0.05 + r * math.cos(2 * math.pi * f * t),
+        0.05 + r * math.sin(2 * math.pi * f * t),
+    )
 
 
 def _sampled(fn: Path2, t1: float, rate: float = RATE_IN) -> list[Touch]:
@@ -59,9 +71,7 @@ def strokes() -> list[Stroke]:
         out.append(
             Stroke(
                 f"paper70 {v * 1000:g}mm/s",
-                tuple(
-                    _sampled(lambda t, v=v, T=t_move: (0.05 + v * min(t, T), 0.05), t_move + 0.4)
-                ),
+                tuple(_sampled(_line(v, t_move), t_move + 0.4)),
                 True,
             )
         )
@@ -82,15 +92,7 @@ def strokes() -> list[Stroke]:
         out.append(
             Stroke(
                 f"circle {f:g}Hz",
-                tuple(
-                    _sampled(
-                        lambda t, f=f, r=r: (
-                            0.05 + r * math.cos(2 * math.pi * f * t),
-                            0.05 + r * math.sin(2 * math.pi * f * t),
-                        ),
-                        2.0,
-                    )
-                ),
+                tuple(_sampled(_circle(f, r), 2.0)),
                 False,
             )
         )
@@ -202,7 +204,11 @@ def errors(a: Run, ref: Run) -> tuple[float, float, float]:
 
 
 def time_per_step(
-    sets: Sequence[Setting], params: Params, all_ticks: list[list], repeats: int
+    sets: Sequence[Setting],
+    params: Params,
+    all_ticks: list[Ticks],
+    repeats: int,
+    done: Callable[[str], None] = lambda _msg: None,
 ) -> list[float]:
     """us per ContactSim step for each setting: repeats interleaved round-robin
     (so load from other processes hits every setting alike), minimum kept."""
@@ -217,6 +223,7 @@ def time_per_step(
                 for t, batch in tk:
                     adv(t, batch)
             best[j] = min(best[j], time.perf_counter() - t0)
+        done("timing")
     return [b / n * 1e6 for b in best]
 
 
@@ -314,16 +321,6 @@ def loop_cost(params: Params, sts: Sequence[Stroke], contacts: int, nticks: int)
     return (time.perf_counter() - t0) / ((nticks - 1) * contacts) * 1e9
 
 
-def _progress(total: int, enabled: bool):  # type: ignore[no-untyped-def]
-    if not enabled:
-        return None
-    try:
-        from tqdm import tqdm
-    except ImportError:
-        return None
-    return tqdm(total=total, file=sys.stderr, desc="accuracy", leave=False)
-
-
 LOAD = 0.0
 
 
@@ -341,12 +338,14 @@ def main(argv: list[str]) -> int:
     repeats = 2 if args.quick else 15
     dt = params.dt
     all_ticks = [ticks(s, dt) for s in sts]
-    bar = _progress(len(sets) + 8, sys.stderr.isatty() and not args.json)
+    # One step per stroke reference, setting, timing repeat and batch run: the
+    # references and timings take minutes in a full run.
+    n_batch = sum(1 for st in sets if st.substeps == 1)
+    bar = progress(len(sts) + len(sets) + repeats + n_batch + 3, "accuracy", "step")
 
     def step(msg: str) -> None:
-        if bar is not None:
-            bar.set_postfix_str(msg)
-            bar.update(1)
+        bar.set_postfix_str(msg)
+        bar.update(1)
 
     # References, and how much they can be trusted.
     refs: list[Run] = []
@@ -360,9 +359,9 @@ def main(argv: list[str]) -> int:
             rk = simulate(ContactSim(params, "rk4", 256, events=True), tk)
             ref_check.append((s.name, errors(ref, finer)[1], errors(rk, ref)[1]))
             refs.append(ref)
-    step("references")
+        step(f"reference {s.name}")
 
-    rows = []
+    rows: list[dict[str, Any]] = []
     for st in sets:
         per = []
         for s, tk, ref in zip(sts, all_ticks, refs, strict=True):
@@ -370,9 +369,8 @@ def main(argv: list[str]) -> int:
             per.append((s.name, *errors(simulate(sim, tk), ref)))
         rows.append({"setting": st, "per": per})
         step(st.label)
-    for r, us in zip(rows, time_per_step(sets, params, all_ticks, repeats), strict=True):
+    for r, us in zip(rows, time_per_step(sets, params, all_ticks, repeats, step), strict=True):
         r["us"] = us
-    step("timing")
     euler_us = next(r["us"] for r in rows if r["setting"] == Setting("explicit-euler", 1, False))
 
     slide = slide_cost(("explicit-euler", "exact"), params, 30 if args.quick else 100)
@@ -381,12 +379,10 @@ def main(argv: list[str]) -> int:
     nticks = 60 if args.quick else 150
     for r in rows:
         st = r["setting"]
-        r["ns"] = (
-            batch_cost(st, params, sts, contacts, nticks, max(1, repeats - 2))
-            if st.substeps == 1
-            else None
-        )
-    step("batch")
+        r["ns"] = None
+        if st.substeps == 1:
+            r["ns"] = batch_cost(st, params, sts, contacts, nticks, max(1, repeats - 2))
+            step(f"batch {st.label}")
     naive_ns = loop_cost(params, sts, 300, 30)
     step("loop")
 
@@ -427,13 +423,11 @@ def main(argv: list[str]) -> int:
         "default_time<=1.5x_explicit_euler": default["ratio_to_explicit_euler"] <= 1.5,
         "batch_ns<=50": batch_default is not None and batch_default <= 50.0,
     }
-    if bar is not None:
-        bar.close()
+    bar.close()
 
     text = _table(records, ref_check, follow, naive_ns, batch_default, targets, contacts, slide)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "accuracy.txt").write_text(text)
-    (RESULTS / "accuracy.json").write_text(
+    (results_dir() / "accuracy.txt").write_text(text)
+    (results_dir() / "accuracy.json").write_text(
         json.dumps(
             {
                 "settings": records,
@@ -462,7 +456,7 @@ def main(argv: list[str]) -> int:
         )
         + "\n"
     )
-    _plot(records, RESULTS / "accuracy.png")
+    _plot(records, results_dir() / "accuracy.png")
     if args.json:
         for x in records:
             print(json.dumps({k: v for k, v in x.items() if k != "strokes"}, default=_json_default))
@@ -543,7 +537,7 @@ def _plot(records, path: Path) -> None:  # type: ignore[no-untyped-def]
     for x in records:
         err = max(x["rms_px"], 1e-12)
         pts.append((x["us_per_step"], err, x))
-    front = []
+    front: list[tuple[float, float, dict[str, Any]]] = []
     for us, err, x in sorted(pts, key=lambda p: (p[0], p[1])):
         if not front or err < front[-1][1]:
             front.append((us, err, x))

@@ -35,7 +35,8 @@ Prints tick jitter (start - deadline) p50/p99/max, late ticks (> half a
 period), deadline-to-subscriber latency p50/p99/max (subscriber receipt
 time minus the frame's deadline, both CLOCK_MONOTONIC), and CPU use of each
 publishing process (subscribers excluded), with the ratios and differences
-the targets are stated in. Writes bench/results/daemon.{json,txt,png}
+the targets are stated in. Writes daemon.{json,txt,png} in the results
+folder (--save: bench/results/)
 (``daemon-<S>s.*`` for other durations).
 """
 
@@ -56,10 +57,8 @@ from typing import Any
 
 import numpy as np
 
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
+from stiction.bench._support import NoBar, progress, results_dir
+
 DEFAULT_SECONDS = 20.0
 
 
@@ -201,7 +200,7 @@ class BareProcess:
 
     def __init__(self, seconds: float, rate: float, out: str, endpoint: str | None) -> None:
         self.out = out
-        argv = [sys.executable, __file__, "--bare-child", str(seconds), str(rate), out]
+        argv = [sys.executable, "-m", __name__, "--bare-child", str(seconds), str(rate), out]
         self.proc = subprocess.Popen(
             argv + ([endpoint] if endpoint else []),
             stdin=subprocess.PIPE,
@@ -277,7 +276,20 @@ def run_daemon(
     daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
     daemon.open()
     ticks: list[int] = []
-    daemon.on_tick = ticks.append
+    # Progress on a terminal, one step a second (runs last up to 10 minutes);
+    # elsewhere the bar is a no-op and the hook stays ticks.append alone.
+    bar = progress(seconds, f"stictiond {'idle ' if spec is None else ''}run", "s")
+    if isinstance(bar, NoBar):
+        daemon.on_tick = ticks.append
+    else:
+        per_second = max(1, round(rate))
+
+        def on_tick(n: int) -> None:
+            ticks.append(n)
+            if n % per_second == 0:
+                bar.update(1)
+
+        daemon.on_tick = on_tick
     cpu0 = time.process_time()
     wall0 = time.monotonic()
     try:
@@ -287,6 +299,7 @@ def run_daemon(
         jitter = daemon.jitter.values().copy()
         start = daemon.schedule.start
     finally:
+        bar.close()
         daemon.close()
     return stats, cpu, start, jitter, np.asarray(ticks, dtype=np.int64)
 
@@ -510,10 +523,9 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         stem += f"-spin{args.spin_ms:g}"
     if args.realtime:
         stem += f"-rt{args.realtime}"
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / f"{stem}.txt").write_text(table + "\n")
-    (RESULTS / f"{stem}.json").write_text(json.dumps(res, indent=2))
-    _plot(res, RESULTS / f"{stem}.png")
+    (results_dir() / f"{stem}.txt").write_text(table + "\n")
+    (results_dir() / f"{stem}.json").write_text(json.dumps(res, indent=2))
+    _plot(res, results_dir() / f"{stem}.png")
     print(json.dumps(res, indent=2) if args.json else table)
     return 0
 

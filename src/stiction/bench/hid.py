@@ -13,25 +13,22 @@ Every recorded input report of shared/data/hid is decoded three ways:
   (`ReportStream.feed`: decoding, units, contact tracking, counters).
 
 Times are the minimum over repeats (the machine is shared; the minimum is
-the least disturbed run). Writes bench/results/hid.{json,txt,png}.
+the least disturbed run). Writes hid.{json,txt,png} in the results folder
+(--save: bench/results/).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import time
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "hid"
+from stiction.bench._support import results_dir, shared_data
+
 TARGET_RATIO = 50.0
 TARGET_BATCH = 10e6
 
@@ -70,6 +67,7 @@ def _bench_recording(path: Path, repeat: int, sample: int) -> dict[str, Any] | N
     def hidtools() -> None:
         for data in ht_sample:
             report = ht.get(data[0] if numbered else -1, len(data))
+            assert report is not None, "hid-tools found no report for a recorded one"
             for f in report:
                 f.get_values(data)
 
@@ -190,7 +188,7 @@ def _plot(rows: list[dict[str, Any]], path: Path) -> None:
     ax.set_ylabel("microseconds per report (log)")
     ax.set_xticks(list(x))
     ax.set_xticklabels(names, rotation=30, ha="right", fontsize=8)
-    ax.set_title("Decoding real HID reports (bench/hid.py)")
+    ax.set_title("Decoding real HID reports (stiction bench hid)")
     fig.legend(loc="lower center", ncol=3, fontsize=8, frameon=False)
     fig.tight_layout(rect=(0, 0.06, 1, 1))
     fig.savefig(path, dpi=110)
@@ -202,13 +200,16 @@ def main(argv: list[str]) -> int:
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     ap.add_argument("--repeat", type=int, default=7, help="repeats per measurement (min is kept)")
     ap.add_argument("--sample", type=int, default=400, help="reports per recording for hid-tools")
+    ap.add_argument(
+        "--data",
+        metavar="DIR",
+        help="folder of .hid recordings (default: shared/data/hid beside the checkout)",
+    )
     args = ap.parse_args(argv)
-    if not DATA.is_dir():
-        print(f"shared HID data not found at {DATA}")
-        return 2
+    data = shared_data("hid", args.data)
     rows = [
         r
-        for p in sorted(DATA.glob("*.hid"))
+        for p in sorted(data.glob("*.hid"))
         if (r := _bench_recording(p, args.repeat, args.sample)) is not None
     ]
     n_ht = sum(r["hidtools_sample"] for r in rows)
@@ -243,10 +244,9 @@ def main(argv: list[str]) -> int:
         "command": "stiction bench hid --json",
     }
     table = _table(rows, total)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "hid.json").write_text(json.dumps(result, indent=2) + "\n")
-    (RESULTS / "hid.txt").write_text(table + "\n")
-    _plot(rows, RESULTS / "hid.png")
+    (results_dir() / "hid.json").write_text(json.dumps(result, indent=2) + "\n")
+    (results_dir() / "hid.txt").write_text(table + "\n")
+    _plot(rows, results_dir() / "hid.png")
     if args.json:
         print(json.dumps({k: v for k, v in result.items() if k != "recordings"}))
     else:

@@ -25,14 +25,13 @@ them into tuples): the "objects" ratio.
 Times are the minimum over repeats (the machine is shared; the minimum is the
 least disturbed run); the median is kept in the JSON. Both paths are checked
 to find the same number of frames and contacts before anything is timed.
-Writes bench/results/evdev.{json,txt,png}.
+Writes evdev.{json,txt,png} in the results folder (--save: bench/results/).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import platform
 import statistics
 import time
@@ -40,11 +39,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
-DATA = Path(__file__).resolve().parents[2] / "shared" / "data" / "evdev"
+from stiction.bench._support import results_dir, shared_data
+
 RECORDINGS = [
     "wacom-cintiq-13hd-touch-pen.evemu",
     "wacom-cintiq-12wx.evemu",
@@ -75,12 +71,12 @@ def naive_frames(events: Iterable[Any]) -> list[list[dict[str, Any]]]:
     frames: list[list[dict[str, Any]]] = []
     slots: dict[int, dict[str, int]] = {}
     single: dict[str, int] = {}
-    keys: dict[str, int] = {}
+    keys: dict[Any, int] = {}
     slot = 0
     for ev in events:
         c = evdev.categorize(ev)
         if isinstance(c, evdev.AbsEvent):
-            name = ecodes.ABS[ev.code]
+            name: Any = ecodes.ABS[ev.code]
             if isinstance(name, list):
                 name = name[0]
             if name == "ABS_MT_SLOT":
@@ -234,9 +230,15 @@ def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="stiction bench evdev", description=__doc__.split("\n")[0])
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
     ap.add_argument("--repeat", type=int, default=21, help="timed repeats per path")
-    ap.add_argument("--no-write", action="store_true", help="do not write bench/results/")
+    ap.add_argument("--no-write", action="store_true", help="write no results files")
+    ap.add_argument(
+        "--data",
+        metavar="DIR",
+        help="folder of evdev recordings (default: shared/data/evdev beside the checkout)",
+    )
     args = ap.parse_args(argv)
-    rows = [_bench_recording(DATA / name, args.repeat) for name in RECORDINGS]
+    data = shared_data("evdev", args.data)
+    rows = [_bench_recording(data / name, args.repeat) for name in RECORDINGS]
     total_events = sum(r["events"] for r in rows)
     total_frames = sum(r["frames"] for r in rows)
     pooled_s = {
@@ -277,8 +279,7 @@ def main(argv: list[str]) -> int:
     else:
         print(table + summary)
     if not args.no_write:
-        RESULTS.mkdir(parents=True, exist_ok=True)
-        (RESULTS / "evdev.json").write_text(json.dumps(result, indent=2) + "\n")
-        (RESULTS / "evdev.txt").write_text(table + summary + "\n")
-        _plot(rows, RESULTS / "evdev.png")
+        (results_dir() / "evdev.json").write_text(json.dumps(result, indent=2) + "\n")
+        (results_dir() / "evdev.txt").write_text(table + summary + "\n")
+        _plot(rows, results_dir() / "evdev.png")
     return 0

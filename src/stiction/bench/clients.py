@@ -13,31 +13,25 @@ Transcoding for the web bridge: P pages watching; the naive bridge turns the
 frame into JSON once per page, the real one once per frame.
 
 Both tables are microseconds per frame, min of 5 repeats; written to
-bench/results/clients.{txt,json}.
+clients.{txt,json} in the results folder (--save: bench/results/).
 """
 
 from __future__ import annotations
 
 import argparse
 import json
-import os
 import sys
 import time
 from collections.abc import Callable, Sequence
-from pathlib import Path
 from typing import Any
 
 import msgpack
 import zmq
 
 from stiction import protocol
+from stiction.bench._support import results_dir
 from stiction.clients import Frame, Subscriber
 from stiction.clients.messages import wire_to_json
-
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
 
 
 def sample_frame(tick: int) -> dict[str, Any]:
@@ -200,9 +194,8 @@ def main(argv: Sequence[str]) -> int:
     lines += [f"{name:<42}{us:>10.2f}{us / trans[0][1]:>10.2f}" for name, us in trans]
     table = "\n".join(lines)
     result = {"read_us_per_frame": dict(read), "transcode_us_per_frame": dict(trans)}
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "clients.txt").write_text(table + "\n")
-    (RESULTS / "clients.json").write_text(json.dumps(result, indent=2) + "\n")
+    (results_dir() / "clients.txt").write_text(table + "\n")
+    (results_dir() / "clients.json").write_text(json.dumps(result, indent=2) + "\n")
     print(json.dumps(result) if args.json else table)
     return 0
 

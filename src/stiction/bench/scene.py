@@ -13,8 +13,8 @@ regions -- three ways, interleaved in the same run:
 - ``naive_ms_per_tick``: `NaivePipeline.step`, one ContactSim per contact
   (the pipeline before the batch step), same input and output as step.
 
-Prints the median cost per tick, writes bench/results/scene.{json,txt,png}
-(or $STICTION_BENCH_RESULTS), and checks the issue's targets.
+Prints the median cost per tick, writes scene.{json,txt,png} in the results
+folder (--save: bench/results/), and checks the issue's targets.
 """
 
 from __future__ import annotations
@@ -26,18 +26,15 @@ import math
 import os
 import statistics
 import time
-from pathlib import Path
+from typing import Any
 
+from stiction.bench._support import results_dir
 from stiction.daemon.mapping import AreaMapping, MappingConfig
 from stiction.drivers.sample import PenSample
 from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import parse_scene
 from stiction.scene.pipeline import DeviceRun, NaivePipeline, Pipeline, SampleArrays
 
-# STICTION_BENCH_RESULTS=DIR writes the results there instead (the smoke tests do).
-RESULTS = Path(
-    os.environ.get("STICTION_BENCH_RESULTS") or Path(__file__).resolve().parent / "results"
-)
 SIZE = (0.2, 0.15)
 DISPLAY = (1920, 1080)
 SCENES = {
@@ -201,9 +198,8 @@ def main(argv: list[str]) -> int:
         "targets: " + ", ".join(f"{k} {'PASS' if ok else 'FAIL'}" for k, ok in targets.items())
     )
     table = "\n".join(lines)
-    RESULTS.mkdir(parents=True, exist_ok=True)
-    (RESULTS / "scene.txt").write_text(table + "\n")
-    (RESULTS / "scene.json").write_text(
+    (results_dir() / "scene.txt").write_text(table + "\n")
+    (results_dir() / "scene.json").write_text(
         json.dumps({"rows": rows, "targets": targets, "quick": args.quick}, indent=2)
     )
     _plot(rows)
@@ -212,11 +208,10 @@ def main(argv: list[str]) -> int:
             print(json.dumps(r))
     else:
         print(table)
-        print(f"wrote {RESULTS / 'scene.txt'}")
     return 0
 
 
-def _plot(rows: list[dict[str, object]]) -> None:
+def _plot(rows: list[dict[str, Any]]) -> None:
     import matplotlib
 
     matplotlib.use("Agg")
@@ -236,5 +231,5 @@ def _plot(rows: list[dict[str, object]]) -> None:
     ax.set_title("stiction scene pipeline: cost per tick")
     ax.legend()
     fig.tight_layout()
-    fig.savefig(RESULTS / "scene.png", dpi=100)
+    fig.savefig(results_dir() / "scene.png", dpi=100)
     plt.close(fig)
