@@ -173,7 +173,9 @@ def main(argv: list[str]) -> int:
                     "fits_10ms_tick": best[name, "wire"] < 0.01,
                 }
             )
-    cost_of = {r["contacts"]: r["ms_per_tick"] for r in rows if r["scene"] == TARGET_SCENE}
+    cost_of = {
+        int(r["contacts"]): float(r["ms_per_tick"]) for r in rows if r["scene"] == TARGET_SCENE
+    }
     targets = {
         f"{TARGET_SCENE} {n} contacts <= {ms} ms": cost_of[n] <= ms for n, ms in TARGETS.items()
     }
