@@ -29,6 +29,7 @@ COMMAND_MODULES = (
     "stiction.clients.cli",
     "stiction.demo",
     "stiction.setup.cli",
+    "stiction.trace_cli",
 )
 
 

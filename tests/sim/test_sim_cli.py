@@ -103,7 +103,7 @@ def test_scene_material_string_and_pressure(tmp_path: Path) -> None:
         ("t,x,y,contact\n", "no samples"),
         ("t,x,y,contact\n0,0,0,1\n0.01,zz,0,1\n", ":3: x is not a number"),
         ("t,x,y,contact\n0,0,0,1\n0.01,nan,0,1\n", ":3: x must be finite"),
-        ("t,x,y,contact\n0,0,0,1\n0.01,0,0,2\n", ":3: contact must be 0 or 1"),
+        ("t,x,y,contact\n0,0,0,1\n0.01,0,0,2\n", ":3: contact must be 0 (not touching) or 1"),
         ("t,x,y,contact\n0.5,0,0,1\n0.1,0,0,1\n", ":3: time 0.1 goes back"),
         ("t,x,y,contact\n0,0\n", ":2: expected 4 columns"),
         ("t,x,y,contact\n\xff\xfe\n", "not a text CSV"),

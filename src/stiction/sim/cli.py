@@ -4,6 +4,8 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Iterator
+from pathlib import Path
 from typing import Any
 
 
@@ -17,7 +19,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
             "and write the state at every tick to OUT.csv."
         ),
     )
-    p.add_argument("trace", metavar="TRACE.csv")
+    p.add_argument(
+        "trace",
+        metavar="TRACE.csv",
+        help="a trace CSV (`stiction trace` makes one from any recording), or example:NAME "
+        "for one shipped with stiction (example:demo, example:stroke, example:circles)",
+    )
     p.add_argument("--out", required=True, metavar="OUT.csv", help="output CSV ('-' = stdout)")
     p.add_argument("--integrator", default="default", help="explicit-euler, semi-implicit-euler, "
                    "rk4, implicit-projection, exact or default (default: %(default)s)")  # fmt: skip
@@ -61,7 +68,7 @@ def _simulate(args: argparse.Namespace) -> int:
     from stiction.errors import ParamError
     from stiction.sim.contact import ContactSim
     from stiction.sim.params import Params
-    from stiction.sim.trace import read_trace, simulate, write_states
+    from stiction.sim.trace import TraceSample, open_trace, resolve_trace, simulate, write_states
 
     values: dict[str, Any] = {}
     string = True
@@ -75,6 +82,17 @@ def _simulate(args: argparse.Namespace) -> int:
         string = STRING in scene.effects
         if scene.outside is None or STICK_SLIP not in scene.effects:
             passthrough = True
+            why = (
+                "has no 'stick_slip' effect"
+                if STICK_SLIP not in scene.effects
+                else "has no 'outside' material (a trace has no display, so its regions "
+                "cannot be placed; simulate uses the outside material)"
+            )
+            print(
+                f"stiction: warning: scene {args.scene} {why}: the output has no friction "
+                "(pointer = touch, tension 0)",
+                file=sys.stderr,
+            )
         else:
             values.update(scene.materials[scene.outside].overrides())
         if PRESSURE_LOAD in scene.effects:
@@ -87,14 +105,34 @@ def _simulate(args: argparse.Namespace) -> int:
     if args.substeps < 1:
         raise ParamError(f"--substeps must be >= 1, got {args.substeps}")
     sim = ContactSim(params, args.integrator, args.substeps, events, string=string)
-    samples = read_trace(args.trace)
-    states = simulate(samples, sim, gain, passthrough)
-    if args.out == "-":
-        write_states(states, sys.stdout)
-        return 0
-    from pathlib import Path
+    path = resolve_trace(args.trace)
+    touched = [False]
 
-    out = Path(args.out)
+    def watch(samples: Iterator[TraceSample]) -> Iterator[TraceSample]:
+        for s in samples:
+            touched[0] = touched[0] or s.tip
+            yield s
+
+    with open_trace(path) as samples:
+        states = simulate(watch(samples), sim, gain, passthrough)
+        if args.out == "-":
+            write_states(states, sys.stdout)
+        else:
+            _write_atomically(Path(args.out), states)
+    if not touched[0]:
+        print(
+            f"stiction: warning: {path}: no sample has contact = 1, so every output row is "
+            "'up'. The contact column is the touch state (1 = touching, 0 = not), "
+            "not a contact id.",
+            file=sys.stderr,
+        )
+    return 0
+
+
+def _write_atomically(out: Path, states: Iterator[Any]) -> None:
+    from stiction.errors import ParamError
+    from stiction.sim.trace import write_states
+
     tmp = out.with_name(out.name + ".part")
     try:
         with tmp.open("w", encoding="utf-8", newline="") as f:
@@ -106,4 +144,3 @@ def _simulate(args: argparse.Namespace) -> int:
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
-    return 0

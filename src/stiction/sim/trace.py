@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import csv
 import math
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
@@ -47,18 +47,73 @@ class TraceSample:
     """A trace has no hover column: a row with contact 0 is out of range ("up")."""
 
 
+MAX_TRACE_GAP_S = 600.0
+"""Longest pause between two samples. A trace ticks every 1/rate from its first
+sample to its last (docs/design/architecture.md), so a pause of 1e9 s would be
+1e11 ticks; a pause longer than ten minutes is two sessions, to be split."""
+
+
+EXAMPLES = Path(__file__).with_name("examples")
+"""Traces shipped with the package (made by scripts/make-example-traces.sh)."""
+
+
+def resolve_trace(name: str) -> Path:
+    """A trace path, or ``example:NAME`` for one shipped with the package."""
+    if name.startswith("example:"):
+        path = EXAMPLES / f"{name[len('example:') :]}.csv"
+        if not path.is_file():
+            known = ", ".join(sorted(f"example:{p.stem}" for p in EXAMPLES.glob("*.csv")))
+            raise RecordingError(f"no shipped trace {name!r}; shipped: {known or 'none'}")
+        return path
+    return Path(name)
+
+
 def read_trace(path: str | Path) -> list[TraceSample]:
-    p = Path(path)
+    """The whole trace in memory; `open_trace` streams it instead."""
+    with open_trace(path) as samples:
+        return list(samples)
+
+
+class open_trace:
+    """Context manager streaming a trace file's samples, so a trace of any length
+    is read in constant memory. Errors name the file and line."""
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = Path(path)
+        self._f: TextIO | None = None
+
+    def __enter__(self) -> Iterator[TraceSample]:
+        p = self.path
+        try:
+            p.stat()
+            if not p.is_file():  # a FIFO or /dev/zero would be read for ever
+                raise RecordingError(f"{p}: not a regular file; a trace must be a CSV file")
+            self._f = p.open(newline="", encoding="utf-8")
+        except OSError as exc:
+            raise RecordingError(f"{p}: cannot read trace: {exc.strerror or exc}") from None
+        return _decoding(iter_trace(self._f, str(p)), str(p))
+
+    def __exit__(self, *exc: object) -> None:
+        if self._f is not None:
+            self._f.close()
+
+
+def _decoding(samples: Iterator[TraceSample], name: str) -> Iterator[TraceSample]:
     try:
-        with p.open(newline="", encoding="utf-8") as f:
-            return parse_trace(f, str(p))
-    except OSError as exc:
-        raise RecordingError(f"{p}: cannot read trace: {exc.strerror or exc}") from None
+        yield from samples
     except UnicodeDecodeError:
-        raise RecordingError(f"{p}: not a text CSV file") from None
+        raise RecordingError(f"{name}: not a text CSV file") from None
+    except OSError as exc:
+        raise RecordingError(f"{name}: cannot read trace: {exc.strerror or exc}") from None
 
 
 def parse_trace(f: TextIO, name: str = "<trace>") -> list[TraceSample]:
+    return list(iter_trace(f, name))
+
+
+def iter_trace(f: TextIO, name: str = "<trace>") -> Iterator[TraceSample]:
+    """The samples of a trace, one at a time, each checked (finite, in time order,
+    no pause over MAX_TRACE_GAP_S, contact 0 or 1)."""
     reader = csv.reader(f)
     header: list[str] | None = None
     for row in reader:
@@ -74,31 +129,39 @@ def parse_trace(f: TextIO, name: str = "<trace>") -> list[TraceSample]:
             f"(expected t,x,y,contact[,pressure]), got {','.join(header)}"
         )
     col = {c: header.index(c) for c in header}
+    it, ix, iy, ic = col["t"], col["x"], col["y"], col["contact"]
     ip = col.get("pressure")
-    out: list[TraceSample] = []
     last_t = -math.inf
+    any_sample = False
     for row in reader:
         line = reader.line_num
         if not row or all(not c.strip() for c in row) or row[0].lstrip().startswith("#"):
             continue
         if len(row) < len(header):
             raise RecordingError(f"{name}:{line}: expected {len(header)} columns, got {len(row)}")
-        t = _num(row[col["t"]], "t", name, line)
-        x = _num(row[col["x"]], "x", name, line)
-        y = _num(row[col["y"]], "y", name, line)
-        c = row[col["contact"]].strip()
+        t = _num(row[it], "t", name, line)
+        x = _num(row[ix], "x", name, line)
+        y = _num(row[iy], "y", name, line)
+        c = row[ic].strip()
         if c not in ("0", "1"):
-            raise RecordingError(f"{name}:{line}: contact must be 0 or 1, got {c!r}")
+            raise RecordingError(
+                f"{name}:{line}: contact must be 0 (not touching) or 1 (touching), got {c!r}"
+            )
         pressure = None
         if ip is not None and row[ip].strip():
             pressure = _num(row[ip], "pressure", name, line)
         if t < last_t:
             raise RecordingError(f"{name}:{line}: time {t!r} goes back (previous {last_t!r})")
+        if last_t > -math.inf and t - last_t > MAX_TRACE_GAP_S:
+            raise RecordingError(
+                f"{name}:{line}: {t - last_t:g} s after the previous sample; a trace may "
+                f"pause at most {MAX_TRACE_GAP_S:g} s (split it into two traces)"
+            )
         last_t = t
-        out.append(TraceSample(t, x, y, c == "1", pressure))
-    if not out:
+        any_sample = True
+        yield TraceSample(t, x, y, c == "1", pressure)
+    if not any_sample:
         raise RecordingError(f"{name}: trace has a header but no samples")
-    return out
 
 
 def _num(text: str, what: str, name: str, line: int) -> float:
@@ -112,32 +175,36 @@ def _num(text: str, what: str, name: str, line: int) -> float:
 
 
 def tick_batches(
-    samples: Sequence[TraceSample], rate: float
+    samples: Iterable[TraceSample], rate: float
 ) -> Iterator[tuple[float, list[TraceSample]]]:
-    """(tick time, samples since the previous tick): ticks every 1/rate from the first sample."""
-    t0 = samples[0].t
-    t_end = samples[-1].t
+    """(tick time, samples since the previous tick): ticks every 1/rate from the
+    first sample to the last. Reads `samples` lazily, one tick ahead at most."""
+    it = iter(samples)
+    nxt = next(it, None)
+    if nxt is None:
+        return
+    t0 = nxt.t
     dt = 1.0 / rate
-    i = 0
-    n = len(samples)
     tick = 0
+    last_t = t0
     while True:
         t = t0 + tick * dt
-        if t > t_end + _SNAP:
+        if nxt is None and t > last_t + _SNAP:
             break
         batch: list[TraceSample] = []
-        while i < n and samples[i].t <= t + _SNAP:
-            s = samples[i]
+        while nxt is not None and nxt.t <= t + _SNAP:
+            s = nxt
             if s.t > t:
                 s = TraceSample(t, s.x, s.y, s.tip, s.pressure)
             batch.append(s)
-            i += 1
+            last_t = nxt.t
+            nxt = next(it, None)
         yield t, batch
         tick += 1
 
 
 def simulate(
-    samples: Sequence[TraceSample],
+    samples: Iterable[TraceSample],
     sim: ContactSim,
     load_gain: Callable[[float | None], float] | None = None,
     passthrough: bool = False,
