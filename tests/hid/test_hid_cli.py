@@ -36,6 +36,8 @@ def test_describe_json_shape(hid_data: Path, capsys: pytest.CaptureFixture[str])
         "variable",
         "constant",
         "relative",
+        "usage_hex",
+        "usage_name",
     }
     assert all(set(f) == keys for f in report["fields"])
     x = next(f for f in report["fields"] if f["usage"] == 0x00010030)
@@ -49,7 +51,8 @@ def test_decode_json_lines(hid_data: Path, capsys: pytest.CaptureFixture[str]) -
     lines = _lines(capsys, "hid", "decode", str(path), "--json")
     assert len(lines) == 3484
     first = lines[0]
-    assert set(first) == {"time", "report_id", "fields", "contacts"}
+    assert set(first) == {"time", "report_id", "fields", "names", "contacts"}
+    assert first["names"]["0x00010030"] == "Generic Desktop / X"
     assert first["time"] == 0.0 and first["report_id"] == 7
     assert all(re.fullmatch(r"0x[0-9a-f]{8}", k) for k in first["fields"])
     from stiction.drivers.hid.recording import load_recording

@@ -28,8 +28,12 @@ def _json_int(v: int) -> int | str:
 
 
 def _field_json(f: Any) -> dict[str, Any]:
+    from stiction.drivers.hid.usages import usage_hex, usage_name
+
     return {
         "usage": f.usage,
+        "usage_hex": usage_hex(f.usage),
+        "usage_name": usage_name(f.usage),
         "bit_offset": f.bit_offset,
         "bit_size": f.bit_size,
         "count": f.count,
@@ -49,6 +53,7 @@ def _describe(args: argparse.Namespace) -> int:
     from stiction.drivers.hid.descriptor import parse_descriptor
     from stiction.drivers.hid.recording import load_recording
     from stiction.drivers.hid.units import unit_name
+    from stiction.drivers.hid.usages import usage_name
 
     rec = load_recording(args.file)
     desc = parse_descriptor(rec.descriptor)
@@ -68,7 +73,10 @@ def _describe(args: argparse.Namespace) -> int:
         return 0
     print(f"{rec.name} ({rec.vid:04x}:{rec.pid:04x}), descriptor {len(rec.descriptor)} bytes")
     for r in reports:
-        print(f"input report {r.report_id}: {r.bit_size} bits, application 0x{r.application:08x}")
+        print(
+            f"input report {r.report_id}: {r.bit_size} bits, application "
+            f"0x{r.application:08x} ({usage_name(r.application)})"
+        )
         for f in r.fields:
             kind = "const" if f.constant else ("var" if f.variable else "array")
             unit = unit_name(f.unit)
@@ -77,6 +85,7 @@ def _describe(args: argparse.Namespace) -> int:
                 f" 0x{f.usage:08x} {kind:5s}"
                 f" logical {f.logical_min}..{f.logical_max}"
                 f" physical {f.physical_min}..{f.physical_max} unit {unit} exp {f.unit_exponent}"
+                f"  {usage_name(f.usage)}"
             )
     return 0
 
@@ -87,6 +96,7 @@ def _decode(args: argparse.Namespace) -> int:
     from stiction.drivers.hid.devices import lookup
     from stiction.drivers.hid.recording import load_recording
     from stiction.drivers.hid.stream import ReportStream
+    from stiction.drivers.hid.usages import usage_name
 
     rec = load_recording(args.file)
     desc = parse_descriptor(rec.descriptor)
@@ -107,9 +117,9 @@ def _decode(args: argparse.Namespace) -> int:
             )
             obj["fields"] = {}
         else:
-            obj["fields"] = {
-                f"0x{u:08x}": [_json_int(x) for x in v] for u, v in dec.values(ev.data).items()
-            }
+            values = dec.values(ev.data)
+            obj["fields"] = {f"0x{u:08x}": [_json_int(x) for x in v] for u, v in values.items()}
+            obj["names"] = {f"0x{u:08x}": usage_name(u) for u in values}
         if stream is None:
             obj["contacts"] = None
         else:
@@ -120,7 +130,11 @@ def _decode(args: argparse.Namespace) -> int:
         if args.json:
             print(json.dumps(obj))
         else:
-            fields = " ".join(f"{k}={v}" for k, v in obj["fields"].items())
+            names = obj.get("names", {})
+            fields = " ".join(
+                f"{names.get(k, k).split(' / ', 1)[-1]}={v[0] if len(v) == 1 else v}"
+                for k, v in obj["fields"].items()
+            )
             print(f"{ev.t:.6f} report {rid}: {fields}")
     return 0
 
