@@ -317,3 +317,48 @@ def test_the_bridge_waits_out_the_daemons_keepalive_before_calling_it_gone(
         assert bridge.stats.state == "gone"
     finally:
         daemon.close()
+
+
+def is_pen(p: list[int]) -> bool:  # #7b1fa2
+    return 100 < p[0] < 150 and p[1] < 60 and 140 < p[2] < 190
+
+
+@pytest.mark.parametrize(("width", "height"), [(1280, 800), (1920, 1080)])
+def test_a_newcomer_sees_pen_pointer_legend_and_plain_status(
+    browser: Any, short_dir: Path, width: int, height: int
+) -> None:
+    """Issue 13's demo: the pen apart from the pointer, a legend, a favicon, no
+    negative latency, and a status that says the stream stopped instead of
+    showing stale rates."""
+    frames = write_recording(short_dir / "stroke.npz")
+    rec = recording.read(short_dir / "stroke.npz")
+    pub, ctl = f"ipc://{short_dir}/pub", f"ipc://{short_dir}/ctl"
+    with (
+        replaying(rec, pub, ctl, speed=4.0),
+        web_page(browser, pub, ctl, width, height) as (web, page),
+    ):
+        last = frames[-1]
+        page.wait_for_function(
+            f"window.stiction && window.stiction.drawnTick === {last['tick']}", timeout=30_000
+        )
+        c = last["contacts"][0]
+        tx, ty = c["touch_px"]
+        scale = page.evaluate("view.width / view.clientWidth")
+        ring = 22 * max(1.0, scale)  # draw.js PEN_RADIUS in CSS px, on the canvas
+        got = page.evaluate(PIXELS_JS, [[(round(tx), round(ty - ring)), c["pointer_px"]]])
+        assert is_pen(got["px"][0]), got  # the pen's ring, where the pen is
+        assert is_black(got["px"][1]), got  # the pointer, apart from it
+        legend = page.inner_text("#legend")
+        for words in ("sticking", "slipping", "pen", "virtual string"):
+            assert words in legend
+        status = page.inner_text("#status")
+        assert "-" not in status.split("latency", 1)[1], status  # no negative figure
+        with urllib.request.urlopen(web.url + "favicon.ico", timeout=10) as r:
+            assert r.status == 200 and r.headers["Content-Type"].startswith("image/svg")
+        # The replayer stops sending: the status says so instead of old rates.
+        page.wait_for_function(
+            "['stale', 'gone'].includes(window.stiction.statusState)", timeout=30_000
+        )
+        stale = page.inner_text("#status")
+        assert "frames/s" not in stale and ("no frames" in stale or "no connection" in stale)
+        page.screenshot(path=str(short_dir / f"demo-{width}.png"))

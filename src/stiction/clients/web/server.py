@@ -76,6 +76,11 @@ class Site:
             await ws.close(code=WSCloseCode.GOING_AWAY, message=b"stiction web is stopping")
 
 
+async def favicon(request: web.Request) -> web.FileResponse:
+    """Browsers ask for /favicon.ico whatever the page says; an SVG answers it."""
+    return web.FileResponse(STATIC / "favicon.svg", headers={"Content-Type": "image/svg+xml"})
+
+
 def make_app(bridge: Bridge) -> web.Application:
     site = Site(bridge)
     app = web.Application()
@@ -83,6 +88,7 @@ def make_app(bridge: Bridge) -> web.Application:
     app.router.add_get("/", site.index)
     app.router.add_get("/ws", site.websocket)
     app.router.add_get("/status", site.status)
+    app.router.add_get("/favicon.ico", favicon)
     app.router.add_static("/static/", STATIC, append_version=False)
 
     async def bridge_task(app: web.Application) -> Any:

@@ -17,7 +17,7 @@ const state = {
   prevFrame: new Map(),    // device -> an earlier frame, for the daemon's rate
   link: { state: "connecting", message: "connecting to the bridge…" },
   latencyMs: null,
-  receivedAt: 0,
+  receivedAt: null,
   screenMs: null,
   tickRate: null,
   dirty: true,
@@ -88,8 +88,8 @@ function render(now) {
     state.dirty = false;
     drawAll(canvas, state.scene, frames);
     drawMeter.tick(now);
-    if (frames.length) {
-      state.screenMs = now - state.receivedAt;
+    if (frames.length && state.receivedAt !== null) {
+      state.screenMs = Math.max(0, now - state.receivedAt); // rAF's clock starts the frame
       window.stiction.drawnTick = Math.max(...frames.map((f) => f.tick));
     }
     window.stiction.drawn += 1;
@@ -102,8 +102,11 @@ function render(now) {
     tickRate: state.tickRate,
     latencyMs: state.latencyMs,
     screenMs: state.screenMs,
+    now,
+    receivedAt: state.receivedAt,
   });
-  const line = `● ${s.state.padEnd(9)} ${s.text.replace("\n", "\n            ")}`;
+  window.stiction.statusState = s.state;
+  const line = `● ${s.state.padEnd(10)} ${s.text.replace("\n", "\n             ")}`;
   if (statusEl.textContent !== line) {
     statusEl.textContent = line;
     statusEl.className = "";

@@ -22,7 +22,23 @@ export function daemonRate(prev, frame) {
 
 const fmt = (x, digits) => (x === null || x === undefined || !Number.isFinite(x) ? "–" : x.toFixed(digits));
 
-export function statusText({ link, frames, drawRate, receiveRate, tickRate, latencyMs, screenMs }) {
+export const STALE_MS = 2500;
+// Past this long without a frame the rates and latencies describe the past:
+// the status says how long it has been instead of showing them.
+
+export function statusText({
+  link, frames, drawRate, receiveRate, tickRate, latencyMs, screenMs, now = 0, receivedAt = null,
+}) {
+  if (link.state === "connecting" || (link.state !== "gone" && receivedAt === null && !frames.length)) {
+    const what = link.state === "connecting" ? "connecting to the bridge (stiction web)…" : "waiting for the first frame from stictiond…";
+    return { state: link.state === "connecting" ? "connecting" : link.state, text: `${what}\n ` };
+  }
+  const silentMs = receivedAt === null ? null : now - receivedAt;
+  if (link.state === "gone" || (silentMs !== null && silentMs > STALE_MS)) {
+    const since = silentMs === null ? "" : ` for ${(silentMs / 1000).toFixed(0)} s`;
+    const why = link.state === "gone" ? "no connection to the bridge" : "no frames from stictiond";
+    return { state: link.state === "gone" ? "gone" : "stale", text: `${why}${since}: the picture shows the last state\n ` };
+  }
   const parts = [];
   const contacts = [];
   for (const f of frames) {
@@ -33,7 +49,9 @@ export function statusText({ link, frames, drawRate, receiveRate, tickRate, late
   }
   parts.push(contacts.length ? contacts.join("  |  ") : frames.length ? `${frames.map((f) => f.device).join(", ")}: no contact` : "no device yet");
   parts.push(`daemon ${fmt(tickRate, 0)} frames/s, received ${receiveRate}/s, drawn ${drawRate}/s`);
-  const lat = latencyMs === null ? "tick→bridge n/a" : `tick→bridge ${fmt(latencyMs, 1)} ms`;
+  // A negative latency means the two clocks disagree (start-up, another
+  // machine): not a figure worth showing.
+  const lat = latencyMs === null || latencyMs < 0 ? "tick→bridge –" : `tick→bridge ${fmt(latencyMs, 1)} ms`;
   parts.push(`latency ${lat} + bridge→screen ${fmt(screenMs, 1)} ms`);
   // Two lines: what the pen is doing, then how the pipeline is doing.
   return { state: link.state, text: `${parts[0]}\n${parts.slice(1).join("   ·   ")}` };
