@@ -97,6 +97,8 @@ class Guard:
     def _load_server_keys(self) -> tuple[bytes, bytes]:
         import zmq.auth
 
+        from stiction.keyfiles import KeyFileError, check_private
+
         assert self.curve.secret_key is not None
         try:
             public, secret = zmq.auth.load_certificate(str(self.curve.secret_key))
@@ -106,6 +108,10 @@ class Guard:
             raise SecurityError(
                 f"{self.curve.secret_key} holds no secret key (use the .key_secret file)"
             )
+        try:
+            check_private(self.curve.secret_key)
+        except KeyFileError as exc:
+            raise SecurityError(str(exc)) from None
         return public, secret
 
     def _start_authenticator(self) -> None:
