@@ -101,6 +101,7 @@ def _record(args: argparse.Namespace) -> int:
             devices=args.device or None,
             stop=stop,
             curve=_curve(args),
+            force=args.force,
         )
     report(result)
     return 0
@@ -167,7 +168,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="turn the FILE.npz.partial spool a killed recorder left into its recording "
         "(--out: where to write it; default: the name it was recording to)",
     )
-    p.add_argument("--force", action="store_true", help="--recover: replace --out if it exists")
+    p.add_argument("--force", action="store_true", help="replace --out if it exists")
     p.add_argument(
         "--control",
         help="control endpoint for scene and parameters "
