@@ -29,6 +29,14 @@ from stiction.errors import ProtocolError, StictionError
 pytest_plugins = ["clients_fixtures"]
 
 
+def _keypair(directory, name):  # type: ignore[no-untyped-def]
+    """The project's own writer: the secret half is private (0600), as the daemon requires."""
+    from stiction.keyfiles import write_keypair
+
+    public, secret = write_keypair(Path(directory), name, force=True)
+    return str(public), str(secret)
+
+
 def free_port() -> int:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
@@ -287,9 +295,9 @@ def test_curve_daemon_talks_only_to_authorised_clients(short_dir: Path) -> None:
     keys, allowed = short_dir / "keys", short_dir / "authorized"
     keys.mkdir()
     allowed.mkdir()
-    server_pub, server_secret = zmq.auth.create_certificates(str(keys), "daemon")
-    client_pub, client_secret = zmq.auth.create_certificates(str(keys), "client")
-    _, stranger_secret = zmq.auth.create_certificates(str(keys), "stranger")
+    server_pub, server_secret = _keypair(keys, "daemon")
+    client_pub, client_secret = _keypair(keys, "client")
+    _, stranger_secret = _keypair(keys, "stranger")
     shutil.copy(client_pub, allowed)
     ctx = zmq.Context()
     auth = ThreadAuthenticator(ctx)
@@ -316,9 +324,8 @@ def test_curve_daemon_talks_only_to_authorised_clients(short_dir: Path) -> None:
 
 
 def test_curve_key_files_are_checked(short_dir: Path) -> None:
-    import zmq.auth
 
-    public, _secret = zmq.auth.create_certificates(str(short_dir), "x")
+    public, _secret = _keypair(short_dir, "x")
     with pytest.raises(StictionError, match="cannot read CURVE key"):
         CurveKeys.from_files(short_dir / "missing.key", public)
     with pytest.raises(StictionError, match="no secret key"):

@@ -242,3 +242,18 @@ def test_record_writes_the_file_when_stopped_by_a_signal(
 def test_curve_flags_come_in_pairs(capsys: pytest.CaptureFixture[str]) -> None:
     assert cli.main(["listen", "--curve-server-key", "x.key", "--seconds", "1"]) == 2
     assert "give both --curve-server-key and --curve-client-key" in capsys.readouterr().err
+
+
+def test_record_refuses_to_overwrite_a_recording_without_force(tmp_path: Path) -> None:
+    import subprocess
+    import sys
+
+    out = tmp_path / "session.npz"
+    out.write_bytes(b"someone's data")
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction", "record", f"ipc://{tmp_path}/nobody", "--out", str(out),
+         "--no-control", "--seconds", "0.1"],
+        capture_output=True, text=True, timeout=60,
+    )  # fmt: skip
+    assert done.returncode == 2 and "--force" in done.stderr
+    assert out.read_bytes() == b"someone's data"

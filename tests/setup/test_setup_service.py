@@ -144,3 +144,16 @@ def test_systemd_analyze_verify(tmp_path: Path) -> None:
     broken.parent.mkdir()
     broken.write_text(unit_file.read_text().replace("Restart=on-failure", "Restart=bogus"))
     assert "bogus" in verify(broken).stderr
+
+
+def test_a_customised_unit_is_replaced_only_with_force(tmp_path: Path) -> None:
+    xdg = tmp_path / "xdg"
+    assert _install(xdg).returncode == 0
+    unit_file = xdg / "systemd" / "user" / "stictiond.service"
+    mine = unit_file.read_text().replace("[Service]", "[Service]\nNice=-5")
+    unit_file.write_text(mine)
+    refused = _install(xdg)
+    assert refused.returncode == 2 and "--force" in refused.stderr
+    assert "Traceback" not in refused.stderr and unit_file.read_text() == mine
+    assert _install(xdg, "--force").returncode == 0
+    assert "Nice=-5" not in unit_file.read_text()

@@ -101,6 +101,7 @@ def _record(args: argparse.Namespace) -> int:
             devices=args.device or None,
             stop=stop,
             curve=_curve(args),
+            force=args.force,
         )
     report(result)
     return 0
@@ -133,6 +134,8 @@ def _web(args: argparse.Namespace) -> int:
         port=args.port,
         seconds=args.seconds,
         curve=_curve(args),
+        token=args.token,
+        allow_origins=tuple(args.allow_origin or ()),
     )
 
 
@@ -167,7 +170,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="turn the FILE.npz.partial spool a killed recorder left into its recording "
         "(--out: where to write it; default: the name it was recording to)",
     )
-    p.add_argument("--force", action="store_true", help="--recover: replace --out if it exists")
+    p.add_argument("--force", action="store_true", help="replace --out if it exists")
     p.add_argument(
         "--control",
         help="control endpoint for scene and parameters "
@@ -226,7 +229,19 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         f"(default: {protocol.DEFAULT_CONTROL} when --pub is the default)",
     )
     p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
-    p.add_argument("--host", default="127.0.0.1", help="address to serve on (default loopback)")
+    p.add_argument(
+        "--host",
+        default="127.0.0.1",
+        help="address to serve on (default loopback; any other needs the access token, "
+        "generated and printed with the URL unless --token gives one)",
+    )
+    p.add_argument("--token", help="the access token for a non-loopback --host")
+    p.add_argument(
+        "--allow-origin",
+        action="append",
+        metavar="ORIGIN",
+        help="also accept WebSockets from this page origin, e.g. https://lab.example (repeatable)",
+    )
     p.add_argument("--port", type=_port, default=8765, help="HTTP port (0: any free port)")
     p.add_argument("--seconds", type=_positive_float, help="stop after S seconds (for scripts)")
     _add_curve(p)

@@ -34,6 +34,8 @@ class CurveKeys:
         on the daemon)."""
         import zmq.auth
 
+        from stiction.keyfiles import KeyFileError, check_private
+
         try:
             server_public, _ = zmq.auth.load_certificate(str(server_key))
             public, secret = zmq.auth.load_certificate(str(client_secret_key))
@@ -43,6 +45,10 @@ class CurveKeys:
             raise CurveKeyError(
                 f"{client_secret_key} holds no secret key (give the client's .key_secret file)"
             )
+        try:
+            check_private(client_secret_key)
+        except KeyFileError as exc:
+            raise CurveKeyError(str(exc)) from None
         return cls(server_public=server_public, public=public, secret=secret)
 
     def apply(self, sock: zmq.Socket[Any]) -> None:

@@ -97,6 +97,7 @@ def record(
     chunk: int = spool.CHUNK,
     flush_every: float = spool.FLUSH_EVERY,
     fsync: bool = True,
+    force: bool = False,
 ) -> RecordResult:
     """Record until ``count`` frames, ``seconds``, ``idle`` seconds of silence
     after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``.
@@ -108,6 +109,8 @@ def record(
     out = Path(out)
     if out.suffix != ".npz":
         raise RecordingError(f"{out}: recordings are numpy .npz files; name it *.npz")
+    if out.exists() and not force:
+        raise RecordingError(f"{out} exists; pass --force to replace it (nothing was recorded)")
     if chunk < 1 or not flush_every > 0:
         raise RecordingError(f"chunk ({chunk}) and flush_every ({flush_every}) must be positive")
     recovered = recover_leftover(out)

@@ -44,6 +44,14 @@ class ReplayState:
 
 
 def _bind(sock: zmq.Socket[Any], endpoint: str, what: str) -> None:
+    # The daemon's policy: an address others can reach needs CURVE keys, and a
+    # replay has none, so it serves loopback and ipc:// only.
+    if not protocol.is_local_endpoint(endpoint):
+        raise StictionError(
+            f"{what} endpoint {endpoint} is not loopback: stiction replay serves recordings "
+            "only on ipc:// or tcp://127.0.0.1 (stictiond needs CURVE keys for other addresses; "
+            "replay has none)"
+        )
     try:
         sock.bind(endpoint)
     except zmq.ZMQError as exc:

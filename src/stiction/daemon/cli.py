@@ -6,8 +6,6 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from stiction.errors import StictionError
-
 
 def _proxy(args: argparse.Namespace) -> int:
     import zmq
@@ -36,15 +34,12 @@ def _proxy(args: argparse.Namespace) -> int:
 def _keys(args: argparse.Namespace) -> int:
     import zmq.auth
 
-    directory: Path = args.directory
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-        public_file, secret_file = zmq.auth.create_certificates(str(directory), args.name)
-        public, _ = zmq.auth.load_certificate(public_file)
-    except OSError as exc:
-        raise StictionError(f"cannot write keys to {directory}: {exc}") from None
+    from stiction.keyfiles import write_keypair
+
+    public_file, secret_file = write_keypair(args.directory, args.name, args.force)
+    public, _ = zmq.auth.load_certificate(str(public_file))
     print(f"public key file (copy to peers): {public_file}")
-    print(f"secret key file (keep private):  {secret_file}")
+    print(f"secret key file (keep private, mode 0600):  {secret_file}")
     print(f"public key (Z85): {public.decode()}")
     return 0
 
@@ -89,4 +84,5 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     k.add_argument("directory", type=Path, metavar="DIR")
     k.add_argument("name", metavar="NAME")
+    k.add_argument("--force", action="store_true", help="replace an existing key pair of that name")
     k.set_defaults(func=_keys)

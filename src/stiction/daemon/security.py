@@ -9,7 +9,6 @@ before a single message of theirs is read.
 
 from __future__ import annotations
 
-import ipaddress
 import logging
 from dataclasses import dataclass
 from pathlib import Path
@@ -18,6 +17,7 @@ from typing import Any
 import zmq
 
 from stiction.errors import StictionError
+from stiction.protocol import is_local_endpoint
 
 log = logging.getLogger("stiction.daemon.security")
 
@@ -26,23 +26,6 @@ ZAP_DOMAIN = "stiction"
 
 class SecurityError(StictionError):
     """An endpoint or key setting that would expose the daemon, or unreadable keys."""
-
-
-def is_local_endpoint(endpoint: str) -> bool:
-    """True for ipc://, inproc:// and tcp:// on a loopback address."""
-    scheme, _, rest = endpoint.partition("://")
-    if scheme in ("ipc", "inproc"):
-        return True
-    if scheme != "tcp":
-        return False
-    host = rest.rsplit(":", 1)[0] if ":" in rest else rest
-    host = host.strip("[]")
-    if host == "localhost":
-        return True
-    try:
-        return ipaddress.ip_address(host).is_loopback
-    except ValueError:
-        return False  # an interface name or "*": the network
 
 
 @dataclass(frozen=True, slots=True)
@@ -97,6 +80,8 @@ class Guard:
     def _load_server_keys(self) -> tuple[bytes, bytes]:
         import zmq.auth
 
+        from stiction.keyfiles import KeyFileError, check_private
+
         assert self.curve.secret_key is not None
         try:
             public, secret = zmq.auth.load_certificate(str(self.curve.secret_key))
@@ -106,6 +91,10 @@ class Guard:
             raise SecurityError(
                 f"{self.curve.secret_key} holds no secret key (use the .key_secret file)"
             )
+        try:
+            check_private(self.curve.secret_key)
+        except KeyFileError as exc:
+            raise SecurityError(str(exc)) from None
         return public, secret
 
     def _start_authenticator(self) -> None:

@@ -34,7 +34,7 @@ def _udev_install(args: argparse.Namespace) -> int:
     path: Path = args.path or _default_rules_path()
     text = builtin_rules()
     dry = args.dry_run or (args.path is None and not is_root())
-    outcome = install_text(path, text, dry_run=dry)
+    outcome = install_text(path, text, dry_run=dry, force=args.force, show="stiction udev print")
     if outcome.action == "unchanged":
         print(f"{path} is already up to date; nothing to do")
         return 0
@@ -71,7 +71,9 @@ def _service_install(args: argparse.Namespace) -> int:
     unit = service.render_unit(service.stictiond_executable())
     config = service.config_path()
     verb = "would write" if args.dry_run else "wrote"
-    done = install_text(service.unit_path(), unit, args.dry_run)
+    done = install_text(
+        service.unit_path(), unit, args.dry_run, force=args.force, show="stiction service print"
+    )
     if done.action == "unchanged":
         print(f"{done.path} is already up to date")
     else:
@@ -170,6 +172,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help=f"write {_default_rules_path()} (as root) and say how to reload udev",
     )
     p.add_argument("--dry-run", action="store_true", help="only print what would be written")
+    p.add_argument(
+        "--force", action="store_true", help="replace an existing file whose content differs"
+    )
     p.add_argument("--path", type=Path, help="write here instead (any user may, if writable)")
     p.set_defaults(func=_udev_install)
 
@@ -187,6 +192,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="write ~/.config/systemd/user/stictiond.service (and a starter config)",
     )
     p.add_argument("--dry-run", action="store_true", help="only print what would be written")
+    p.add_argument(
+        "--force", action="store_true", help="replace an existing file whose content differs"
+    )
     p.set_defaults(func=_service_install)
 
     d = sub.add_parser(

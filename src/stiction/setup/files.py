@@ -23,8 +23,15 @@ class Outcome:
     action: str  # "written", "unchanged" or "would write"
 
 
-def install_text(path: Path, text: str, dry_run: bool, mode: int = 0o644) -> Outcome:
-    """Write `text` to `path` atomically (temp file + rename) unless it is already there."""
+def install_text(
+    path: Path, text: str, dry_run: bool, mode: int = 0o644, force: bool = False, show: str = ""
+) -> Outcome:
+    """Write `text` to `path` atomically (temp file + rename) unless it is already there.
+
+    A file that exists with other content (the user's own edits, or another
+    version's) is replaced only with `force`; `show` is the command that
+    prints what would be written, for the message.
+    """
     try:
         current = path.read_text(encoding="utf-8")
     except (FileNotFoundError, NotADirectoryError):
@@ -35,6 +42,11 @@ def install_text(path: Path, text: str, dry_run: bool, mode: int = 0o644) -> Out
         return Outcome(path, "unchanged")
     if dry_run:
         return Outcome(path, "would write")
+    if current is not None and not force:
+        compare = f" (compare: `{show} | diff {shlex.quote(str(path))} -`)" if show else ""
+        raise StictionError(
+            f"{path} exists with other content{compare}; pass --force to replace it"
+        )
     tmp = path.with_name(f".{path.name}.tmp{os.getpid()}")
     try:
         path.parent.mkdir(parents=True, exist_ok=True)

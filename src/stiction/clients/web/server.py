@@ -5,8 +5,11 @@ from __future__ import annotations
 import asyncio
 import contextlib
 import errno
+import hmac
 import logging
+import secrets
 import signal
+import socket
 import sys
 from pathlib import Path
 from typing import Any
@@ -25,19 +28,48 @@ STATIC = Path(__file__).resolve().parent / "static"
 
 
 class Site:
-    """The HTTP side: the page, its WebSocket, and a status endpoint."""
+    """The HTTP side: the page, its WebSocket, and a status endpoint.
 
-    def __init__(self, bridge: Bridge) -> None:
+    The pen stream is private: on loopback only local programs reach it; on
+    any other address the page, the status and the WebSocket need `token`
+    (``?token=`` in the URL, which the page passes on to its WebSocket). The
+    WebSocket accepts only its own page's Origin (and `allow_origins`), so a
+    web page from elsewhere open in the same browser cannot read the pen.
+    """
+
+    def __init__(
+        self, bridge: Bridge, token: str | None = None, allow_origins: tuple[str, ...] = ()
+    ) -> None:
         self.bridge = bridge
+        self.token = token
+        self.allow_origins = frozenset(o.rstrip("/") for o in allow_origins)
         self.sockets: set[web.WebSocketResponse] = set()
 
+    def check(self, request: web.Request, websocket: bool = False) -> None:
+        """Raise 403 for a request without the token, or a WebSocket from another origin."""
+        if self.token is not None:
+            given = request.query.get("token", "")
+            if not hmac.compare_digest(given.encode(), self.token.encode()):
+                raise web.HTTPForbidden(text="stiction web: the access token is missing or wrong\n")
+        if websocket:
+            origin = request.headers.get("Origin")
+            own = f"{request.scheme}://{request.host}"
+            if origin is not None and origin != own and origin not in self.allow_origins:
+                log.warning("refused a WebSocket from origin %s", origin)
+                raise web.HTTPForbidden(
+                    text=f"stiction web: origin {origin} is not allowed (--allow-origin)\n"
+                )
+
     async def index(self, request: web.Request) -> web.FileResponse:
+        self.check(request)
         return web.FileResponse(STATIC / "index.html", headers={"Cache-Control": "no-cache"})
 
     async def status(self, request: web.Request) -> web.Response:
+        self.check(request)
         return web.json_response(self.bridge.summary())
 
     async def websocket(self, request: web.Request) -> web.WebSocketResponse:
+        self.check(request, websocket=True)
         bridge = self.bridge
         ws = web.WebSocketResponse(heartbeat=10.0, max_msg_size=1 << 16)
         await ws.prepare(request)
@@ -81,8 +113,10 @@ async def favicon(request: web.Request) -> web.FileResponse:
     return web.FileResponse(STATIC / "favicon.svg", headers={"Content-Type": "image/svg+xml"})
 
 
-def make_app(bridge: Bridge) -> web.Application:
-    site = Site(bridge)
+def make_app(
+    bridge: Bridge, token: str | None = None, allow_origins: tuple[str, ...] = ()
+) -> web.Application:
+    site = Site(bridge, token, allow_origins)
     app = web.Application()
     app.on_shutdown.append(site.close_pages)
     app.router.add_get("/", site.index)
@@ -112,15 +146,20 @@ async def run(
     bridges: list[Bridge] | None = None,
     announce: bool = True,
     curve: CurveKeys | None = None,
+    token: str | None = None,
+    allow_origins: tuple[str, ...] = (),
 ) -> None:
     """Serve until cancelled, SIGINT/SIGTERM, or ``seconds`` pass.
 
     ``ready`` gets the page's URL once serving; ``bridges`` (if given) gets the
     Bridge, so an embedding program (stiction demo) can read its counters."""
+    local = is_local_host(host)
+    if not local and token is None:
+        token = secrets.token_urlsafe(16)  # printed once below, with the URL
     bridge = Bridge(pub, control, curve)
     if bridges is not None:
         bridges.append(bridge)
-    runner = web.AppRunner(make_app(bridge), access_log=None)
+    runner = web.AppRunner(make_app(bridge, token, allow_origins), access_log=None)
     await runner.setup()
     site = web.TCPSite(runner, host, port)
     try:
@@ -132,10 +171,21 @@ async def run(
         raise StictionError(f"cannot serve on {host}:{port}: {exc}") from exc
     sockets = getattr(site._server, "sockets", None) or []
     actual = sockets[0].getsockname()[1] if sockets else port
-    shown = "127.0.0.1" if host in ("0.0.0.0", "") else host
-    url = f"http://{shown}:{actual}/"
+    wildcard = host in ("0.0.0.0", "", "::")
+    shown = socket.gethostname() if wildcard else host
+    if ":" in shown:
+        shown = f"[{shown}]"
+    url = f"http://{shown}:{actual}/" + (f"?token={token}" if token else "")
     if announce:
         print(f"stiction web: open {url}  (frames from {pub})", file=sys.stderr, flush=True)
+        if not local:
+            where = "every network interface" if wildcard else host
+            print(
+                f"stiction web: serving the pen stream on {where}: anyone with this URL "
+                "(its token) can watch it; loopback (the default) needs none",
+                file=sys.stderr,
+                flush=True,
+            )
     if ready is not None and not ready.done():
         ready.set_result(url)
     stop = asyncio.Event()
@@ -156,6 +206,13 @@ async def run(
         await runner.cleanup()
 
 
+def is_local_host(host: str) -> bool:
+    """Loopback names and addresses: what only this machine's programs reach."""
+    from stiction.protocol import is_local_endpoint
+
+    return host != "" and is_local_endpoint(f"tcp://{host}:0")
+
+
 def serve(
     *,
     pub: str,
@@ -164,7 +221,14 @@ def serve(
     port: int,
     seconds: float | None = None,
     curve: CurveKeys | None = None,
+    token: str | None = None,
+    allow_origins: tuple[str, ...] = (),
 ) -> int:
     with contextlib.suppress(KeyboardInterrupt):
-        asyncio.run(run(pub, control, host, port, seconds, curve=curve))
+        asyncio.run(
+            run(
+                pub, control, host, port, seconds, curve=curve, token=token,
+                allow_origins=allow_origins,
+            )
+        )  # fmt: skip
     return 0

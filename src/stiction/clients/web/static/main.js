@@ -131,7 +131,10 @@ document.addEventListener("fullscreenchange", fitExactly);
 
 sizeCanvas();
 const proto = location.protocol === "https:" ? "wss:" : "ws:";
-connect(`${proto}//${location.host}/ws`, {
+// The access token of a non-loopback `stiction web` comes in the page's URL.
+const token = new URLSearchParams(location.search).get("token");
+const wsUrl = `${proto}//${location.host}/ws` + (token ? `?token=${encodeURIComponent(token)}` : "");
+connect(wsUrl, {
   onMessage,
   onOpen: () => { state.link = { state: "connected", message: "" }; showBanner(""); state.dirty = true; },
   onClose: (delay) => {

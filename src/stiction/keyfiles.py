@@ -1,0 +1,78 @@
+"""CURVE key files: written private from the start, refused when others can read them.
+
+A secret key that another user can read lets them impersonate the daemon
+(or a client) to every peer; like ssh with a private key, stiction refuses
+to use one whose mode gives group or others any access, and names the fix.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+import tempfile
+from pathlib import Path
+
+from stiction.errors import StictionError
+
+
+class KeyFileError(StictionError):
+    """A key file that cannot be written or must not be used."""
+
+
+def check_private(path: str | Path) -> None:
+    """Raise unless `path` is a file only its owner can read or write."""
+    p = Path(path)
+    try:
+        mode = p.stat().st_mode
+    except OSError as exc:
+        raise KeyFileError(f"cannot read CURVE key {p}: {exc.strerror or exc}") from None
+    if mode & 0o077:
+        raise KeyFileError(
+            f"{p} can be read by other users (mode {stat.S_IMODE(mode):04o}); a secret key "
+            f"must be private: run `chmod 600 {p}`"
+        )
+
+
+def write_keypair(directory: Path, name: str, force: bool = False) -> tuple[Path, Path]:
+    """DIR/NAME.key (public) and DIR/NAME.key_secret (mode 0600), each written whole or not at all.
+
+    The pair is made in a private temporary folder inside DIR (so the final
+    rename stays on one file system and is atomic) under a 077 umask: the
+    secret file is never readable by others, not even for an instant.
+    """
+    import zmq.auth
+
+    public = directory / f"{name}.key"
+    secret = directory / f"{name}.key_secret"
+    if not force:
+        for p in (public, secret):
+            if p.exists():
+                raise KeyFileError(f"{p} exists; pass --force to replace the key pair")
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        old = os.umask(0o077)
+        try:
+            tmp = Path(tempfile.mkdtemp(prefix=f".{name}.", dir=directory))
+            try:
+                made_public, made_secret = (
+                    Path(f) for f in zmq.auth.create_certificates(str(tmp), name)
+                )
+                os.chmod(made_secret, 0o600)
+                os.chmod(made_public, 0o644)  # the public half is meant to be copied
+                for f in (made_public, made_secret):
+                    fd = os.open(f, os.O_RDONLY)
+                    try:
+                        os.fsync(fd)
+                    finally:
+                        os.close(fd)
+                os.replace(made_secret, secret)
+                os.replace(made_public, public)
+            finally:
+                for leftover in tmp.iterdir():
+                    leftover.unlink()
+                tmp.rmdir()
+        finally:
+            os.umask(old)
+    except OSError as exc:
+        raise KeyFileError(f"cannot write keys to {directory}: {exc.strerror or exc}") from None
+    return public, secret
