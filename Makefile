@@ -9,7 +9,7 @@ STAMP := $(VENV)/.installed-stamp
 SYSPKGS := umockdev gir1.2-umockdev-1.0 python3-gi chromium nodejs udev libusb-1.0-0
 PYTEST_ARGS ?=
 
-.PHONY: test demo sysdeps venv lint typecheck pytest bench node-deps clean
+.PHONY: test demo sysdeps venv lint typecheck pytest bench node-deps clean fuzz
 
 test: sysdeps venv node-deps lint typecheck pytest
 
@@ -33,8 +33,8 @@ node-deps:
 	fi
 
 lint: venv
-	$(BIN)/ruff check src tests
-	$(BIN)/ruff format --check src tests
+	$(BIN)/ruff check src tests fuzz
+	$(BIN)/ruff format --check src tests fuzz
 
 typecheck: venv
 	$(BIN)/mypy
@@ -51,3 +51,14 @@ bench: venv
 
 clean:
 	rm -rf $(VENV) .mypy_cache .ruff_cache .pytest_cache .hypothesis
+
+# Coverage-guided fuzzing (atheris/libFuzzer) of every parser of user input,
+# FUZZ_SECONDS each; not part of `make test`. Crashes land in tests/regressions/.
+FUZZ_SECONDS ?= 60
+FUZZ_TARGETS := hid_descriptor hid_recording evemu libinput_record scene trace control_request
+fuzz: venv
+	$(BIN)/python -m pip install -q -e '.[fuzz]'
+	@for t in $(FUZZ_TARGETS); do \
+	  echo "fuzzing $$t for $(FUZZ_SECONDS) s"; \
+	  $(BIN)/python fuzz/run.py $$t -max_total_time=$(FUZZ_SECONDS) -print_final_stats=1 || exit 1; \
+	done

@@ -13,7 +13,7 @@ import math
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TextIO
+from typing import Any, TextIO
 
 from stiction.errors import RecordingError
 from stiction.sim.contact import ContactSim
@@ -114,7 +114,7 @@ def parse_trace(f: TextIO, name: str = "<trace>") -> list[TraceSample]:
 def iter_trace(f: TextIO, name: str = "<trace>") -> Iterator[TraceSample]:
     """The samples of a trace, one at a time, each checked (finite, in time order,
     no pause over MAX_TRACE_GAP_S, contact 0 or 1)."""
-    reader = csv.reader(f)
+    reader = _Rows(csv.reader(f), name)
     header: list[str] | None = None
     for row in reader:
         if row and not row[0].lstrip().startswith("#"):
@@ -162,6 +162,27 @@ def iter_trace(f: TextIO, name: str = "<trace>") -> Iterator[TraceSample]:
         yield TraceSample(t, x, y, c == "1", pressure)
     if not any_sample:
         raise RecordingError(f"{name}: trace has a header but no samples")
+
+
+class _Rows:
+    """csv.reader whose own errors (a stray carriage return, a NUL) become RecordingErrors."""
+
+    def __init__(self, reader: Any, name: str) -> None:
+        self.reader = reader
+        self.name = name
+
+    @property
+    def line_num(self) -> int:
+        return int(self.reader.line_num)
+
+    def __iter__(self) -> Iterator[list[str]]:
+        return self
+
+    def __next__(self) -> list[str]:
+        try:
+            return list(next(self.reader))
+        except csv.Error as exc:
+            raise RecordingError(f"{self.name}:{self.reader.line_num}: not CSV: {exc}") from None
 
 
 def _num(text: str, what: str, name: str, line: int) -> float:
