@@ -249,11 +249,22 @@ def test_unplugged_device_ends_its_contacts_and_is_reopened(endpoints: tuple[str
     thread_alive = False
     try:
         with Runner(d) as runner:
-            _wait_for(sub, lambda m: any(c["phase"] == "stick" for c in m.get("contacts", [])))
+            held = _wait_for(
+                sub, lambda m: any(c["phase"] == "stick" for c in m.get("contacts", []))
+            )
             gate.set()
             gone = _wait_for(sub, lambda m: any(c["phase"] == "up" for c in m.get("contacts", [])))
             assert [c["phase"] for c in gone["contacts"]] == ["up"]
             assert gone["contacts"][0]["pointer_m"] == gone["contacts"][0]["touch_m"]
+            # The closing "up" is like any other: the contact's last material
+            # (the default scene has no pass-through area) and, with the string
+            # effect, a string of length 0.
+            before = held["contacts"][0]
+            assert before["material"] != protocol.PASS_THROUGH
+            assert gone["contacts"][0]["material"] == before["material"]
+            assert ("string" in gone["contacts"][0]) == ("string" in before)
+            if "string" in before:
+                assert gone["contacts"][0]["string"]["length_px"] == 0.0
             # The loop answers control requests between ticks (or idle, as it
             # is now, with no device left): once it has answered, the tick that
             # ended the device is over.

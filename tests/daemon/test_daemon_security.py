@@ -126,3 +126,40 @@ def test_only_authorised_peers_are_accepted(keys: dict[str, Path]) -> None:
         for s in subs.values():
             s.close()
         ctx.term()
+
+
+def test_control_client_with_a_refused_key_returns_promptly(keys: dict[str, Path]) -> None:
+    """A refused CURVE handshake leaves a REQ socket with no peer: the project's
+    control client bounds the send as well as the reply and says what failed."""
+    from stiction.clients.control import ControlUnavailable, request
+    from stiction.clients.curve import CurveKeys
+
+    curve = CurveConfig(keys["server"], keys["authorized"], required=True)
+    d = make_daemon(
+        ("tcp://127.0.0.1:*", "tcp://127.0.0.1:*"),
+        {"pen": ListSource(stroke(n=5), gate=threading.Event())},
+        curve=curve,
+    )
+    assert d.control is not None
+    ctl = d.control.endpoint
+    wrong = CurveKeys.from_files(keys["server.pub"], keys["intruder"])
+    right = CurveKeys.from_files(keys["server.pub"], keys["client"])
+    outcome: list[BaseException | dict[str, Any]] = []
+
+    def ask() -> None:
+        for _ in range(3):  # the same client, asking again after a refusal
+            try:
+                outcome.append(request(ctl, "ping", timeout=0.3, curve=wrong))
+            except BaseException as exc:
+                outcome.append(exc)
+
+    with Runner(d):
+        t = threading.Thread(target=ask, daemon=True)
+        t.start()
+        t.join(30)
+        assert not t.is_alive(), "the control client hung on a refused handshake"
+        assert request(ctl, "ping", timeout=5, curve=right)["ok"]
+    assert len(outcome) == 3
+    for exc in outcome:
+        assert isinstance(exc, ControlUnavailable), exc
+        assert "within 0.3 s" in str(exc)

@@ -7,6 +7,7 @@ a daemon that is down costs the caller one timeout, nothing more.
 
 from __future__ import annotations
 
+import asyncio
 from typing import Any
 
 import zmq
@@ -21,9 +22,14 @@ class ControlUnavailable(StictionError):
     """Nothing answered on the control endpoint in time."""
 
 
-def _socket(ctx: zmq.Context[Any], endpoint: str, curve: CurveKeys | None) -> zmq.Socket[Any]:
+def _socket(
+    ctx: zmq.Context[Any], endpoint: str, curve: CurveKeys | None, timeout: float
+) -> zmq.Socket[Any]:
     sock: zmq.Socket[Any] = ctx.socket(zmq.REQ)
     sock.setsockopt(zmq.LINGER, 0)
+    # A REQ socket whose CURVE handshake was refused has no peer to send to,
+    # and send() then blocks for ever: bound the send as well as the reply.
+    sock.setsockopt(zmq.SNDTIMEO, max(1, int(timeout * 1000)))
     if curve is not None:
         curve.apply(sock)
     sock.connect(endpoint)
@@ -45,14 +51,22 @@ def request(
     ProtocolError when the daemon answers with an error.
     """
     ctx = context or zmq.Context.instance()
-    sock = _socket(ctx, endpoint, curve)
+    sock = _socket(ctx, endpoint, curve, timeout)
     try:
-        sock.send(protocol.make_request(op, **args))
+        try:
+            sock.send(protocol.make_request(op, **args))
+        except zmq.Again:
+            raise ControlUnavailable(_unsent(op, endpoint, timeout, curve)) from None
         if not sock.poll(int(timeout * 1000)):
             raise ControlUnavailable(f"no reply to {op!r} from {endpoint} within {timeout:g} s")
         return protocol.parse_reply(sock.recv())
     finally:
         sock.close()
+
+
+def _unsent(op: str, endpoint: str, timeout: float, curve: CurveKeys | None) -> str:
+    why = " (is the server key right, and is this client's key authorised?)" if curve else ""
+    return f"could not send {op!r} to {endpoint} within {timeout:g} s{why}"
 
 
 async def request_async(
@@ -72,7 +86,10 @@ async def request_async(
         curve.apply(sock)
     sock.connect(endpoint)
     try:
-        await sock.send(protocol.make_request(op, **args))
+        try:
+            await asyncio.wait_for(sock.send(protocol.make_request(op, **args)), timeout)
+        except (TimeoutError, zmq.Again):
+            raise ControlUnavailable(_unsent(op, endpoint, timeout, curve)) from None
         if not await sock.poll(int(timeout * 1000)):
             raise ControlUnavailable(f"no reply to {op!r} from {endpoint} within {timeout:g} s")
         return protocol.parse_reply(await sock.recv())

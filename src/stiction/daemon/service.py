@@ -485,6 +485,7 @@ class Daemon:
                 # The device is gone: every contact still live ends here, once, as "up".
                 ended = self.pipeline.end_all(run)
                 ids = {c["id"] for c in ended}
+                self._keep_last_material(slot.name, contacts, ended)
                 contacts = [c for c in contacts if c["id"] not in ids] + ended
                 contacts.sort(key=lambda c: c["id"])
             last = self.last_frames.get(slot.name)
@@ -522,6 +523,25 @@ class Daemon:
                 log.info("device_stopped device=%s state=%s", slot.name, slot.state)
         self.last_tick = tick
         self.last_tick_t = t
+
+    def _keep_last_material(self, name: str, current: list[Any], ended: list[Any]) -> None:
+        """Give each closing "up" the material (and string) its contact last had.
+
+        The pipeline's end_all cannot know where the contact was last seen
+        (it reports "pass-through"), but a client must see a closing "up" like
+        any other: on the material the contact was on, with a string of length
+        0 when the scene has the string effect. The newest report is this
+        tick's step, else the last published frame.
+        """
+        last = self.last_frames.get(name)
+        seen: dict[int, Any] = {c["id"]: c for c in (last["contacts"] if last else [])}
+        seen.update({c["id"]: c for c in current})
+        for c in ended:
+            before = seen.get(c["id"])
+            if before is not None:
+                c["material"] = before["material"]
+            if self.pipeline.string and "string" not in c:
+                c["string"] = {"length_px": 0.0, "dir": [0.0, 0.0]}
 
     # ------------------------------------------------------------ scene and params
     def _publish_scene(self) -> None:
