@@ -77,6 +77,12 @@ SMOKES = {
         frozenset({"recordings", "pooled", "ratio_naive_over_stiction", "repeat"}),
         data="evdev_data",
     ),
+    "faults": Smoke(
+        ("--seconds", "2"),
+        "faults",
+        False,
+        frozenset({"crashes", "hangs", "frames_accounted", "rss_growth_pct", "targets"}),
+    ),
     "hid": Smoke(
         ("--repeat", "1", "--sample", "20"),
         "hid",
