@@ -51,6 +51,7 @@ def _field_json(f: Any) -> dict[str, Any]:
 
 def _describe(args: argparse.Namespace) -> int:
     from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.drivers.hid.facts import describe_device
     from stiction.drivers.hid.recording import load_recording
     from stiction.drivers.hid.units import unit_name
     from stiction.drivers.hid.usages import usage_name
@@ -58,8 +59,10 @@ def _describe(args: argparse.Namespace) -> int:
     rec = load_recording(args.file)
     desc = parse_descriptor(rec.descriptor)
     reports = sorted(desc.input_reports.values(), key=lambda r: r.report_id)
+    facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
     if args.json:
         out = {
+            "device": facts.as_json(),
             "input_reports": [
                 {
                     "report_id": r.report_id,
@@ -67,11 +70,12 @@ def _describe(args: argparse.Namespace) -> int:
                     "fields": [_field_json(f) for f in r.fields],
                 }
                 for r in reports
-            ]
+            ],
         }
         print(json.dumps(out))
         return 0
     print(f"{rec.name} ({rec.vid:04x}:{rec.pid:04x}), descriptor {len(rec.descriptor)} bytes")
+    print(facts.as_text())
     for r in reports:
         print(
             f"input report {r.report_id}: {r.bit_size} bits, application "
