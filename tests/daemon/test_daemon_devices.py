@@ -82,3 +82,35 @@ def test_take_live_rejects_non_finite_samples_and_keeps_time_order() -> None:
     slot.queue.append((PenSample(t=-1.0, x=0.0, y=0.0, tip=True), 1.0))
     got, _ = take_live(slot, 1.5, 2.0)
     assert len(got) == 1 and 1.5 < got[0].t <= 2.0
+
+
+def test_the_nth_device_of_a_name_gets_n_as_its_suffix(endpoints: tuple[str, str]) -> None:
+    """protocol.md: A, B, A are named A, B, A#2 (not A#3, the position)."""
+    from daemon_support import ListSource, make_daemon, stroke
+
+    d = make_daemon(
+        endpoints,
+        {
+            "/dev/input/event1": ListSource(stroke(n=3), name="A"),
+            "/dev/input/event2": ListSource(stroke(n=3), name="B"),
+            "/dev/input/event3": ListSource(stroke(n=3), name="A"),
+            "/dev/input/event4": ListSource(stroke(n=3), name="A"),
+        },
+    )
+    try:
+        assert [s.name for s in d.slots] == ["A", "B", "A#2", "A#3"]
+    finally:
+        d.close()
+
+
+def test_stats_leave_out_a_rate_not_measured_yet(endpoints: tuple[str, str]) -> None:
+    """protocol.md: a statistic that is missing is absent, never a made-up 0.0."""
+    from daemon_support import ListSource, make_daemon, stroke
+
+    d = make_daemon(endpoints, {"/dev/input/event1": ListSource(stroke(n=3), name="A")})
+    try:
+        device = d.stats()["devices"]["A"]
+        assert "rate_hz" not in device
+        assert device["samples"] == 0
+    finally:
+        d.close()

@@ -177,7 +177,6 @@ class Daemon:
             self.ctx, self.opts.control, self.guard, self, on_request=self.waker.wake
         )
         configs = self.opts.devices or _auto_devices()
-        names: set[str] = set()
         for cfg in configs:
             spec = parse_spec(cfg.spec)
             if self.virtual and not spec.finite:
@@ -194,9 +193,7 @@ class Daemon:
                 if spec.finite:
                     raise
                 log.warning("device_absent spec=%s error=%s (watching for it)", cfg.spec, exc)
-            if slot.name in names:
-                slot.name = f"{slot.name}#{len(self.slots)}"
-            names.add(slot.name)
+            slot.name = self._nth_name(slot)
         if self.virtual:
             self._align_virtual()
         elif self.opts.hotplug and (
@@ -287,8 +284,7 @@ class Daemon:
                 new = slot not in self.slots
                 self._install(slot, source)
                 if new:
-                    if any(s.name == slot.name for s in self.slots):
-                        slot.name = f"{slot.name}#{len(self.slots) + 1}"
+                    slot.name = self._nth_name(slot)
                     self.slots.append(slot)
                     log.info("device_added device=%s spec=%s", slot.name, slot.config.spec)
                 else:
@@ -597,6 +593,17 @@ class Daemon:
                 "reload_failed scene=%s error=%s (keeping the current scene)", opts.scene, exc
             )
 
+    def _nth_name(self, slot: DeviceSlot) -> str:
+        """The n-th device of one name is `name#n` (A, B, A: A, B, A#2), as protocol.md says."""
+        base = slot.name
+
+        def same(name: str) -> bool:
+            tail = name[len(base) + 1 :]
+            return name == base or (name.startswith(base + "#") and tail.isdigit())
+
+        n = sum(1 for s in self.slots if s is not slot and same(s.name))
+        return base if n == 0 else f"{base}#{n + 1}"
+
     # ------------------------------------------------------------ replies
     def stats(self) -> dict[str, Any]:
         pub = self.publisher
@@ -605,13 +612,15 @@ class Daemon:
             devices[slot.name] = {
                 "state": slot.state,
                 "samples": slot.samples,
-                "rate_hz": round(slot.meter.rate, 2),
                 "rejected": slot.rejected,
                 "errors": slot.errors,
                 "reopened": slot.reopened,
                 "clock_steps": slot.clock.steps,
                 "driver": slot.driver_stats(),
             }
+            # protocol.md: a statistic not measured yet is absent, not 0.0.
+            if slot.meter.rate is not None:
+                devices[slot.name]["rate_hz"] = round(slot.meter.rate, 2)
         control = self.control
         return {
             "uptime_s": round(time.monotonic() - self._started, 3),
