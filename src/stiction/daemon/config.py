@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from stiction.argtypes import check_endpoint
-from stiction.daemon.devices import DeviceConfig
+from stiction.daemon.devices import DeviceConfig, parse_spec, spec_problem
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.security import CurveConfig
 from stiction.daemon.service import Options
@@ -195,6 +195,14 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
     t = r.table(raw, where, _DEVICE_KEYS)
     if "spec" not in t:
         r.fail(where, 'missing \'spec\' (e.g. spec = "/dev/hidraw3" or "synthetic:demo")')
+    if not isinstance(t["spec"], str):
+        r.fail((*where, "spec"), f"must be a string, got {t['spec']!r}")
+    try:
+        problem = spec_problem(parse_spec(t["spec"]))
+    except StictionError as exc:
+        r.fail((*where, "spec"), str(exc))
+    if problem is not None:
+        r.fail((*where, "spec"), problem)
     mode = t.get("mapping", "area")
     if mode == "absolute":
         mode = "area"

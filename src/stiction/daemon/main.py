@@ -95,6 +95,12 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
 
     opts = load_options(args.config) if args.config else Options()
     if args.device:
+        from stiction.daemon.devices import parse_spec, spec_problem
+
+        for text in args.device:
+            problem = spec_problem(parse_spec(text))
+            if problem is not None:
+                raise StictionError(f"--device {text!r}: {problem}")
         known = {d.spec: d for d in opts.devices}
         opts.devices = [known.get(spec, DeviceConfig(spec)) for spec in args.device]
     if args.scene:

@@ -192,7 +192,9 @@ class Daemon:
                 # replay or synthetic stroke that cannot be opened is the user's error.
                 if spec.finite:
                     raise
-                log.warning("device_absent spec=%s error=%s (watching for it)", cfg.spec, exc)
+                log.warning(
+                    "device_absent spec=%s error=%s (waiting for it to appear)", cfg.spec, exc
+                )
             slot.name = self._nth_name(slot)
         if self.virtual:
             self._align_virtual()
@@ -238,6 +240,7 @@ class Daemon:
         slot.run = DeviceRun(mapping)
         slot.clock = ClockMap()  # a reopened device's clock is learnt afresh
         slot.state = "open"
+        slot.opened = True
         slot.went_away = False
         slot.quiet = False
         self.last_frames.pop(slot.name, None)  # announce the (re)opened device at once
@@ -610,7 +613,8 @@ class Daemon:
         devices: dict[str, Any] = {}
         for slot in self.slots:
             devices[slot.name] = {
-                "state": slot.state,
+                "state": _reported_state(slot),
+                "spec": slot.config.spec,
                 "samples": slot.samples,
                 "rejected": slot.rejected,
                 "errors": slot.errors,
@@ -652,7 +656,7 @@ class Daemon:
                     "name": slot.name,
                     "spec": slot.config.spec,
                     "kind": slot.kind,
-                    "state": slot.state,
+                    "state": _reported_state(slot),
                     "surface_m": list(slot.surface_size) if slot.surface_size else None,
                     "mapping": self._mapping_config(slot).mode,
                 }
@@ -710,3 +714,8 @@ def _auto_devices() -> list[DeviceConfig]:
 
 def _ms(value: float | None) -> float | None:
     return None if value is None else value / 1e3
+
+
+def _reported_state(slot: DeviceSlot) -> str:
+    """`waiting` for a device never opened yet (a typo is refused at start), else the state."""
+    return "waiting" if slot.state == "absent" and not slot.opened else slot.state
