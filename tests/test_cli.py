@@ -109,3 +109,23 @@ def test_submodules_still_import_from_the_lazy_packages() -> None:
 
     assert control.__name__ == "stiction.clients.control"
     assert kernels.__name__ == "stiction.sim.kernels"
+
+
+def test_verbose_is_accepted_after_the_subcommand() -> None:
+    parser = cli.build_parser()
+    assert parser.parse_args(["doctor", "-v"]).verbose == 1
+    assert parser.parse_args(["-v", "doctor"]).verbose == 1
+    assert parser.parse_args(["devices", "-vv"]).verbose == 2
+    assert parser.parse_args(["devices"]).verbose == 0
+
+
+def test_devices_json_is_one_array_even_when_empty(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    from stiction.drivers import cli as drivers_cli
+
+    monkeypatch.setattr(drivers_cli, "discover_all", lambda: [])
+    assert cli.main(["devices", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out) == []

@@ -16,6 +16,7 @@ import importlib
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 from stiction import __version__
 from stiction.errors import StictionError
@@ -96,6 +97,26 @@ def _run_bench(args: argparse.Namespace) -> int:
     return status
 
 
+def _verbose_after_subcommands(sub: argparse._SubParsersAction[Any]) -> None:
+    """Accept `-v` after any subcommand too (`stiction doctor -v`), as users type it.
+
+    The default is SUPPRESS so that a subcommand without `-v` keeps the count given before it.
+    """
+    seen: set[int] = set()
+    for parser in sub.choices.values():
+        if id(parser) in seen:  # aliases share one parser
+            continue
+        seen.add(id(parser))
+        if any("-v" in a.option_strings for a in parser._actions):
+            continue
+        parser.add_argument(
+            "-v", "--verbose", action="count", default=argparse.SUPPRESS, help="more log output"
+        )
+        nested = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+        for action in nested:
+            _verbose_after_subcommands(action)
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="stiction",
@@ -106,6 +127,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND")
     for name in COMMAND_MODULES:
         importlib.import_module(name).register(sub)
+    _verbose_after_subcommands(sub)
     bench = sub.add_parser(
         "bench",
         help="run a benchmark (accuracy, hid, evdev, daemon, ... or all)",

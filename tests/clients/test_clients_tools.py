@@ -76,7 +76,7 @@ def test_cli_rejects_bad_numbers(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         cli.main(["listen", "--count", "-3"])
     assert exc.value.code == 2
-    assert "must not be negative" in capsys.readouterr().err
+    assert "argument --count: must be at least 1" in capsys.readouterr().err
 
 
 def _record_stroke(daemon: FakeDaemon, out: Path, n: int = 40) -> Any:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 
@@ -82,3 +83,93 @@ def test_take_live_rejects_non_finite_samples_and_keeps_time_order() -> None:
     slot.queue.append((PenSample(t=-1.0, x=0.0, y=0.0, tip=True), 1.0))
     got, _ = take_live(slot, 1.5, 2.0)
     assert len(got) == 1 and 1.5 < got[0].t <= 2.0
+
+
+def test_the_nth_device_of_a_name_gets_n_as_its_suffix(endpoints: tuple[str, str]) -> None:
+    """protocol.md: A, B, A are named A, B, A#2 (not A#3, the position)."""
+    from daemon_support import ListSource, make_daemon, stroke
+
+    d = make_daemon(
+        endpoints,
+        {
+            "/dev/input/event1": ListSource(stroke(n=3), name="A"),
+            "/dev/input/event2": ListSource(stroke(n=3), name="B"),
+            "/dev/input/event3": ListSource(stroke(n=3), name="A"),
+            "/dev/input/event4": ListSource(stroke(n=3), name="A"),
+        },
+    )
+    try:
+        assert [s.name for s in d.slots] == ["A", "B", "A#2", "A#3"]
+    finally:
+        d.close()
+
+
+def test_stats_leave_out_a_rate_not_measured_yet(endpoints: tuple[str, str]) -> None:
+    """protocol.md: a statistic that is missing is absent, never a made-up 0.0."""
+    from daemon_support import ListSource, make_daemon, stroke
+
+    d = make_daemon(endpoints, {"/dev/input/event1": ListSource(stroke(n=3), name="A")})
+    try:
+        device = d.stats()["devices"]["A"]
+        assert "rate_hz" not in device
+        assert device["samples"] == 0
+    finally:
+        d.close()
+
+
+@pytest.mark.parametrize(
+    "text",
+    ["/dev/input/event999", "/dev/hidraw99", "256c:006d", "hid:256c:006d", "Wacom Intuos"],
+)
+def test_specs_that_may_appear_later_are_not_problems(text: str) -> None:
+    from stiction.daemon.devices import spec_problem
+
+    assert spec_problem(parse_spec(text)) is None
+
+
+@pytest.mark.parametrize(
+    ("text", "words"),
+    [
+        ("/etc/passwd", "not a character device"),
+        ("zz:12", "malformed VID:PID"),
+        ("hid:zz:0001", "malformed VID:PID"),
+        ("/tmp/no/such/device", "does not exist"),
+        ("/dev/hidrawx/../nope", "does not exist"),
+    ],
+)
+def test_specs_that_can_never_be_devices(text: str, words: str) -> None:
+    from stiction.daemon.devices import spec_problem
+
+    problem = spec_problem(parse_spec(text))
+    assert problem is not None and words in problem
+
+
+def test_a_device_not_present_yet_is_listed_as_waiting(endpoints: tuple[str, str]) -> None:
+    from daemon_support import ListSource, make_daemon, stroke
+
+    from stiction.errors import DeviceError
+
+    d = make_daemon(
+        endpoints,
+        {
+            "/dev/input/event999": DeviceError("no such node"),
+            "/dev/input/event1": ListSource(stroke(n=3), name="A"),
+        },
+    )
+    try:
+        listed = {x["spec"]: x["state"] for x in d.devices()}
+        assert listed["/dev/input/event999"] == "waiting"
+        assert listed["/dev/input/event1"] != "waiting"  # opened once: open, then ended
+        stats = d.stats()["devices"]["/dev/input/event999"]
+        assert stats["state"] == "waiting" and stats["spec"] == "/dev/input/event999"
+    finally:
+        d.close()
+
+
+def test_config_device_that_can_never_be_one_names_its_key(tmp_path: Path) -> None:
+    from stiction.daemon.config import ConfigError, load_options
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[[devices]]\nspec = "zz:12"\n')
+    with pytest.raises(ConfigError, match=r"c\.toml:2: devices\[0\]\.spec: malformed VID:PID"):
+        load_options(cfg)

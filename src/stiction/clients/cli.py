@@ -11,34 +11,8 @@ import sys
 from typing import Any
 
 from stiction import protocol
+from stiction.argtypes import endpoint, non_negative_int, port, positive_float, positive_int
 from stiction.errors import StictionError
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 0:
-        raise argparse.ArgumentTypeError(f"must not be negative, got {value}")
-    return value
-
-
-def _positive_float(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not value > 0 or value == float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive finite number, got {text}")
-    return value
-
-
-def _port(text: str) -> int:
-    value = _positive_int(text)
-    if value > 65535:
-        raise argparse.ArgumentTypeError(f"not a TCP port: {value}")
-    return value
 
 
 def default_control(pub: str) -> str | None:
@@ -146,10 +120,16 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="print the frames a subscriber receives",
         description="Subscribe to a daemon and print its frames, one line each.",
     )
-    p.add_argument("endpoint", nargs="?", default=protocol.DEFAULT_PUB, help="publisher endpoint")
+    p.add_argument(
+        "endpoint",
+        nargs="?",
+        type=endpoint,
+        default=protocol.DEFAULT_PUB,
+        help="publisher endpoint",
+    )
     p.add_argument("--json", action="store_true", help="one JSON object per frame: the wire frame")
-    p.add_argument("--count", type=_positive_int, help="stop after N frames")
-    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
+    p.add_argument("--count", type=positive_int, help="stop after N frames")
+    p.add_argument("--seconds", type=positive_float, help="stop after S seconds")
     p.add_argument("--device", action="append", help="only this device (repeatable)")
     p.add_argument("--scenes", action="store_true", help="also print scene messages")
     _add_curve(p)
@@ -162,7 +142,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "and parameters in its metadata. Stops at --count, --seconds, --idle, Ctrl-C or SIGTERM; "
         "the file is written in every case.",
     )
-    p.add_argument("endpoint", nargs="?", default=protocol.DEFAULT_PUB, help="publisher endpoint")
+    p.add_argument(
+        "endpoint",
+        nargs="?",
+        type=endpoint,
+        default=protocol.DEFAULT_PUB,
+        help="publisher endpoint",
+    )
     p.add_argument("--out", help="output file, *.npz (required unless --recover)")
     p.add_argument(
         "--recover",
@@ -173,15 +159,16 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--force", action="store_true", help="replace --out if it exists")
     p.add_argument(
         "--control",
+        type=endpoint,
         help="control endpoint for scene and parameters "
         f"(default: {protocol.DEFAULT_CONTROL} when ENDPOINT is the default)",
     )
     p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
-    p.add_argument("--count", type=_positive_int, help="stop after N frames")
-    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds")
+    p.add_argument("--count", type=positive_int, help="stop after N frames")
+    p.add_argument("--seconds", type=positive_float, help="stop after S seconds")
     p.add_argument(
         "--idle",
-        type=_positive_float,
+        type=positive_float,
         help="stop after S seconds without frames (once started; a quiet daemon still sends "
         "a keep-alive frame a second, so S > 1 means the daemon stopped)",
     )
@@ -196,21 +183,25 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "recorded pace (scaled by --speed) or as fast as possible (--fast).",
     )
     p.add_argument("file", help="a .npz recording")
-    p.add_argument("--pub", default=protocol.DEFAULT_PUB, help="endpoint to publish on")
     p.add_argument(
-        "--control", help="also answer read-only control requests (snapshot, get_scene) here"
+        "--pub", type=endpoint, default=protocol.DEFAULT_PUB, help="endpoint to publish on"
     )
-    p.add_argument("--speed", type=_positive_float, default=1.0, help="pace factor (default 1)")
-    p.add_argument("--fast", action="store_true", help="as fast as possible")
-    p.add_argument("--loop", type=_positive_int, default=1, help="passes to play (0: forever)")
     p.add_argument(
-        "--wait", type=_positive_float, help="give up if no subscriber comes within S seconds"
+        "--control",
+        type=endpoint,
+        help="also answer read-only control requests (snapshot, get_scene) here",
+    )
+    p.add_argument("--speed", type=positive_float, default=1.0, help="pace factor (default 1)")
+    p.add_argument("--fast", action="store_true", help="as fast as possible")
+    p.add_argument("--loop", type=non_negative_int, default=1, help="passes to play (0: forever)")
+    p.add_argument(
+        "--wait", type=positive_float, help="give up if no subscriber comes within S seconds"
     )
     p.add_argument("--no-wait", action="store_true", help="start without waiting for a subscriber")
     p.add_argument(
         "--hold",
         nargs="?",
-        type=_positive_float,
+        type=positive_float,
         const=float("inf"),
         help="after the end, keep answering control requests (for S seconds, or until Ctrl-C)",
     )
@@ -222,9 +213,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         description="Serve a page that draws the scene, the pointer and the virtual string "
         "from the daemon's frames, forwarded over a WebSocket.",
     )
-    p.add_argument("--pub", default=protocol.DEFAULT_PUB, help="daemon publisher endpoint")
+    p.add_argument(
+        "--pub", type=endpoint, default=protocol.DEFAULT_PUB, help="daemon publisher endpoint"
+    )
     p.add_argument(
         "--control",
+        type=endpoint,
         help="daemon control endpoint, for the scene "
         f"(default: {protocol.DEFAULT_CONTROL} when --pub is the default)",
     )
@@ -242,7 +236,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         metavar="ORIGIN",
         help="also accept WebSockets from this page origin, e.g. https://lab.example (repeatable)",
     )
-    p.add_argument("--port", type=_port, default=8765, help="HTTP port (0: any free port)")
-    p.add_argument("--seconds", type=_positive_float, help="stop after S seconds (for scripts)")
+    p.add_argument("--port", type=port, default=8765, help="HTTP port (0: any free port)")
+    p.add_argument("--seconds", type=positive_float, help="stop after S seconds (for scripts)")
     _add_curve(p)
     p.set_defaults(func=_web)

@@ -6,6 +6,8 @@ import argparse
 from pathlib import Path
 from typing import Any
 
+from stiction.argtypes import endpoint
+
 
 def _proxy(args: argparse.Namespace) -> int:
     import zmq
@@ -54,11 +56,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument(
         "--frontend",
         action="append",
+        type=endpoint,
         required=True,
         metavar="ENDPOINT",
         help="a daemon's pub endpoint to connect to (repeatable)",
     )
-    p.add_argument("--backend", required=True, metavar="ENDPOINT", help="endpoint to bind")
+    p.add_argument(
+        "--backend", required=True, type=endpoint, metavar="ENDPOINT", help="endpoint to bind"
+    )
     p.add_argument(
         "--client-key", type=Path, metavar="FILE", help="this proxy's .key_secret for CURVE daemons"
     )

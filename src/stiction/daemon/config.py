@@ -13,7 +13,8 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any, NoReturn
 
-from stiction.daemon.devices import DeviceConfig
+from stiction.argtypes import check_endpoint
+from stiction.daemon.devices import DeviceConfig, parse_spec, spec_problem
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.security import CurveConfig
 from stiction.daemon.service import Options
@@ -117,7 +118,11 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         opts.clock = d["clock"]
     for key in ("pub", "control"):
         if key in d:
-            setattr(opts, key, r.string(d[key], ("daemon", key)))
+            text = r.string(d[key], ("daemon", key))
+            try:
+                setattr(opts, key, check_endpoint(text))
+            except ValueError as exc:
+                r.fail(("daemon", key), str(exc))
     if "scene" in d:
         opts.scene = r.path(d["scene"], ("daemon", "scene"))
     if "display" in d:
@@ -127,6 +132,8 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         opts.display = (int(w), int(h))
     if "hwm" in d:
         hwm = r.number(d["hwm"], ("daemon", "hwm"))
+        if hwm != int(hwm) or hwm < 1:
+            r.fail(("daemon", "hwm"), f"must be a whole number of messages, 1 or more, got {hwm}")
         opts.hwm = int(hwm)
     if "late_threshold_ms" in d:
         opts.late_threshold_ms = r.number(d["late_threshold_ms"], ("daemon", "late_threshold_ms"))
@@ -188,6 +195,14 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
     t = r.table(raw, where, _DEVICE_KEYS)
     if "spec" not in t:
         r.fail(where, 'missing \'spec\' (e.g. spec = "/dev/hidraw3" or "synthetic:demo")')
+    if not isinstance(t["spec"], str):
+        r.fail((*where, "spec"), f"must be a string, got {t['spec']!r}")
+    try:
+        problem = spec_problem(parse_spec(t["spec"]))
+    except StictionError as exc:
+        r.fail((*where, "spec"), str(exc))
+    if problem is not None:
+        r.fail((*where, "spec"), problem)
     mode = t.get("mapping", "area")
     if mode == "absolute":
         mode = "area"

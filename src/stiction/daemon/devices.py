@@ -18,6 +18,8 @@ from __future__ import annotations
 import collections
 import logging
 import math
+import os
+import stat
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -99,6 +101,58 @@ def parse_spec(text: str) -> Spec:
     return Spec("name", t)
 
 
+_HEX = frozenset("0123456789abcdefABCDEF")
+
+
+def _vidpid_problem(text: str) -> str | None:
+    head, _, rest = text.partition(":")
+    if len(head) == 4 and len(rest) == 4 and set(head + rest) <= _HEX:
+        return None
+    return f"malformed VID:PID {text!r} (two 4-digit hex numbers, e.g. 256c:006d)"
+
+
+def _path_problem(path: str, may_appear: bool) -> str | None:
+    """Why `path` can never be an input device, or None if it is one or may become one."""
+    try:
+        mode = os.stat(path).st_mode
+    except FileNotFoundError:
+        if may_appear:
+            return None  # a /dev/input or /dev/hidraw node not plugged in yet
+        return f"{path} does not exist and is not a /dev/input or /dev/hidraw node"
+    except OSError:
+        return None  # exists but unreadable: opening names the permission problem
+    if stat.S_ISCHR(mode):
+        return None
+    hint = " (a recording? use replay:PATH)" if stat.S_ISREG(mode) else ""
+    return f"{path} is not a character device{hint}"
+
+
+def spec_problem(spec: Spec) -> str | None:
+    """Why a parsed spec can never become a device, or None if it is one or may appear later.
+
+    Checked before the daemon starts, so that a typo is an error (exit 2)
+    instead of a daemon that waits forever with 0 ticks. Replays and
+    synthetic strokes are checked when they are opened, which the daemon does
+    at once.
+    """
+    t = spec.target
+    if spec.kind in ("hidraw", "evdev"):
+        if not t.startswith("/"):
+            return _vidpid_problem(t) if spec.kind == "hidraw" else f"not a path: {t!r}"
+        node = os.path.basename(t)
+        may_appear = t.startswith("/dev/input/") or (
+            os.path.dirname(t) == "/dev" and node.startswith("hidraw")
+        )
+        return _path_problem(t, may_appear)
+    if spec.kind == "name":
+        if t.startswith(("/", "./", "../")):
+            return _path_problem(t, False)
+        head, sep, rest = t.partition(":")
+        if sep and head and rest and head.isalnum() and rest.isalnum() and len(head) <= 4:
+            return _vidpid_problem(t)
+    return None
+
+
 def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> SampleSource:
     """Open what a spec names with the matching driver factory."""
     size = cfg.surface_size
@@ -171,6 +225,7 @@ class DeviceSlot:
     spec: Spec
     name: str
     state: str = "absent"  # "open" | "absent" | "ended"
+    opened: bool = False  # ever opened: an absent slot never opened is reported "waiting"
     source: SampleSource | None = None
     kind: str = "pen"
     surface_size: tuple[float, float] | None = None

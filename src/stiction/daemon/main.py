@@ -15,6 +15,13 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from stiction import __version__
+from stiction.argtypes import (
+    endpoint,
+    int_range,
+    non_negative_float,
+    positive_float,
+    positive_int,
+)
 from stiction.errors import StictionError
 
 log = logging.getLogger("stiction.daemon")
@@ -37,33 +44,35 @@ def build_parser() -> argparse.ArgumentParser:
         "synthetic:NAME (repeatable; default: every tablet found, else synthetic:demo)",
     )
     p.add_argument("--scene", type=Path, metavar="FILE", help="scene TOML (default: built-in)")
-    p.add_argument("--pub", metavar="ENDPOINT", help="publisher endpoint")
-    p.add_argument("--control", metavar="ENDPOINT", help="control endpoint")
+    p.add_argument("--pub", type=endpoint, metavar="ENDPOINT", help="publisher endpoint")
+    p.add_argument("--control", type=endpoint, metavar="ENDPOINT", help="control endpoint")
     p.add_argument(
         "--clock",
         choices=("real", "virtual"),
         help="real: live, at the tick rate; virtual: replay as fast as possible and exit",
     )
-    p.add_argument("--rate", type=float, metavar="HZ", help="tick rate (default 100)")
-    p.add_argument("--seconds", type=float, metavar="S", help="stop after S seconds of ticks")
+    p.add_argument("--rate", type=positive_float, metavar="HZ", help="tick rate (default 100)")
+    p.add_argument(
+        "--seconds", type=positive_float, metavar="S", help="stop after S seconds of ticks"
+    )
     p.add_argument("--integrator", help="simulator integrator (see stiction simulate)")
-    p.add_argument("--hwm", type=int, help="PUB high-water mark per subscriber (messages)")
+    p.add_argument("--hwm", type=positive_int, help="PUB high-water mark per subscriber (messages)")
     p.add_argument(
         "--keepalive",
-        type=float,
+        type=non_negative_float,
         metavar="S",
         help="seconds between frames of a device with nothing new (default 1; 0: every tick)",
     )
     p.add_argument(
         "--realtime",
-        type=int,
+        type=int_range(0, 99),
         metavar="PRIO",
-        help="run the loop under SCHED_FIFO at this priority, 1-99 (needs CAP_SYS_NICE "
+        help="run the loop under SCHED_FIFO at this priority, 1-99, 0: off (needs CAP_SYS_NICE "
         "or RLIMIT_RTPRIO; refused: logged, ordinary scheduling)",
     )
     p.add_argument(
         "--spin-ms",
-        type=float,
+        type=non_negative_float,
         metavar="MS",
         help="wake this early and poll the clock to each deadline (default 0.3; 0: just sleep)",
     )
@@ -86,6 +95,12 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
 
     opts = load_options(args.config) if args.config else Options()
     if args.device:
+        from stiction.daemon.devices import parse_spec, spec_problem
+
+        for text in args.device:
+            problem = spec_problem(parse_spec(text))
+            if problem is not None:
+                raise StictionError(f"--device {text!r}: {problem}")
         known = {d.spec: d for d in opts.devices}
         opts.devices = [known.get(spec, DeviceConfig(spec)) for spec in args.device]
     if args.scene:

@@ -180,7 +180,6 @@ class Daemon:
             self.ctx, self.opts.control, self.guard, self, on_request=self.waker.wake
         )
         configs = self.opts.devices or _auto_devices()
-        names: set[str] = set()
         for cfg in configs:
             spec = parse_spec(cfg.spec)
             if self.virtual and not spec.finite:
@@ -196,10 +195,10 @@ class Daemon:
                 # replay or synthetic stroke that cannot be opened is the user's error.
                 if spec.finite:
                     raise
-                log.warning("device_absent spec=%s error=%s (watching for it)", cfg.spec, exc)
-            if slot.name in names:
-                slot.name = f"{slot.name}#{len(self.slots)}"
-            names.add(slot.name)
+                log.warning(
+                    "device_absent spec=%s error=%s (waiting for it to appear)", cfg.spec, exc
+                )
+            slot.name = self._nth_name(slot)
         if self.virtual:
             self._align_virtual()
         elif self.opts.hotplug and (
@@ -244,6 +243,7 @@ class Daemon:
         slot.run = DeviceRun(mapping)
         slot.clock = ClockMap()  # a reopened device's clock is learnt afresh
         slot.state = "open"
+        slot.opened = True
         slot.went_away = False
         slot.quiet = False
         self.last_frames.pop(slot.name, None)  # announce the (re)opened device at once
@@ -290,8 +290,7 @@ class Daemon:
                 new = slot not in self.slots
                 self._install(slot, source)
                 if new:
-                    if any(s.name == slot.name for s in self.slots):
-                        slot.name = f"{slot.name}#{len(self.slots) + 1}"
+                    slot.name = self._nth_name(slot)
                     self.slots.append(slot)
                     log.info("device_added device=%s spec=%s", slot.name, slot.config.spec)
                 else:
@@ -696,21 +695,35 @@ class Daemon:
         self._reload_worker = threading.Thread(target=run, name="reload", daemon=True)
         self._reload_worker.start()
 
+    def _nth_name(self, slot: DeviceSlot) -> str:
+        """The n-th device of one name is `name#n` (A, B, A: A, B, A#2), as protocol.md says."""
+        base = slot.name
+
+        def same(name: str) -> bool:
+            tail = name[len(base) + 1 :]
+            return name == base or (name.startswith(base + "#") and tail.isdigit())
+
+        n = sum(1 for s in self.slots if s is not slot and same(s.name))
+        return base if n == 0 else f"{base}#{n + 1}"
+
     # ------------------------------------------------------------ replies
     def stats(self) -> dict[str, Any]:
         pub = self.publisher
         devices: dict[str, Any] = {}
         for slot in self.slots:
             devices[slot.name] = {
-                "state": slot.state,
+                "state": _reported_state(slot),
+                "spec": slot.config.spec,
                 "samples": slot.samples,
-                "rate_hz": round(slot.meter.rate, 2),
                 "rejected": slot.rejected,
                 "errors": slot.errors,
                 "reopened": slot.reopened,
                 "clock_steps": slot.clock.steps,
                 "driver": slot.driver_stats(),
             }
+            # protocol.md: a statistic not measured yet is absent, not 0.0.
+            if slot.meter.rate is not None:
+                devices[slot.name]["rate_hz"] = round(slot.meter.rate, 2)
         control = self.control
         return {
             "uptime_s": round(time.monotonic() - self._started, 3),
@@ -742,7 +755,7 @@ class Daemon:
                     "name": slot.name,
                     "spec": slot.config.spec,
                     "kind": slot.kind,
-                    "state": slot.state,
+                    "state": _reported_state(slot),
                     "surface_m": list(slot.surface_size) if slot.surface_size else None,
                     "mapping": self._mapping_config(slot).mode,
                 }
@@ -800,3 +813,8 @@ def _auto_devices() -> list[DeviceConfig]:
 
 def _ms(value: float | None) -> float | None:
     return None if value is None else value / 1e3
+
+
+def _reported_state(slot: DeviceSlot) -> str:
+    """`waiting` for a device never opened yet (a typo is refused at start), else the state."""
+    return "waiting" if slot.state == "absent" and not slot.opened else slot.state

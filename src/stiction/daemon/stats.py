@@ -49,7 +49,8 @@ class RateMeter:
         self.span = span
         self._t0 = math.nan
         self._count = 0
-        self.rate = 0.0
+        # None until one full span has been measured: "no rate yet" is not "0 samples/s".
+        self.rate: float | None = None
 
     def add(self, n: int, now: float) -> None:
         if math.isnan(self._t0):

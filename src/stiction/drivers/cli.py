@@ -35,8 +35,8 @@ def discover_all() -> list[DeviceInfo]:
 def _devices(args: argparse.Namespace) -> int:
     found = discover_all()
     if args.json:
-        for info in found:
-            print(json.dumps({**asdict(info), "vid_pid": info.vid_pid}))
+        # One JSON array, `[]` when nothing is found, so a script can always parse the output.
+        print(json.dumps([{**asdict(info), "vid_pid": info.vid_pid} for info in found]))
         return 0
     if not found:
         print("no tablets or touchpads found", file=sys.stderr)
@@ -49,5 +49,7 @@ def _devices(args: argparse.Namespace) -> int:
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     p = sub.add_parser("devices", help="list the tablets and touchpads found")
-    p.add_argument("--json", action="store_true", help="one JSON object per device")
+    p.add_argument(
+        "--json", action="store_true", help="one JSON array, an object per device ([] if none)"
+    )
     p.set_defaults(func=_devices)

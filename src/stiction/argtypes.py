@@ -1,0 +1,122 @@
+"""Argument types shared by `stictiond` and every `stiction` subcommand.
+
+Each is an argparse ``type=``: a bad value raises ``ArgumentTypeError``, which
+argparse prints as ``PROG: error: argument --FLAG: MESSAGE`` with the usage
+line and exit status 2, so every command checks a flag the same way and names
+it. Kept free of heavy imports: argument errors must not load zmq or numpy.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+from collections.abc import Callable
+
+SCHEMES = ("tcp", "ipc", "inproc", "ws", "wss")
+
+
+def _int(text: str) -> int:
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+
+
+def _float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
+def positive_int(text: str) -> int:
+    """A whole number > 0 (counts, high-water marks)."""
+    value = _int(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def non_negative_int(text: str) -> int:
+    """A whole number >= 0, where 0 has a documented meaning (e.g. `--loop 0`: forever)."""
+    value = _int(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must not be negative, got {value}")
+    return value
+
+
+def positive_float(text: str) -> float:
+    """A finite number > 0 (seconds, rates, factors)."""
+    value = _float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
+    return value
+
+
+def non_negative_float(text: str) -> float:
+    """A finite number >= 0, where 0 has a documented meaning (e.g. `--keepalive 0`)."""
+    value = _float(text)
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"must not be negative, got {text}")
+    return value
+
+
+def int_range(low: int, high: int) -> Callable[[str], int]:
+    """A whole number in [low, high] (a priority, a port)."""
+
+    def check(text: str) -> int:
+        value = _int(text)
+        if not low <= value <= high:
+            raise argparse.ArgumentTypeError(f"must be {low} to {high}, got {value}")
+        return value
+
+    check.__name__ = f"int {low}-{high}"
+    return check
+
+
+def port(text: str) -> int:
+    """A TCP port, 0 (any free port) to 65535."""
+    value = _int(text)
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"not a TCP port (0-65535): {value}")
+    return value
+
+
+def check_endpoint(text: str) -> str:
+    """Return the ZeroMQ endpoint `text`, or raise ValueError saying what is wrong with it.
+
+    libzmq itself accepts some of these mistakes (a port above 65535 binds a
+    random port) or reports them as something else, so they are caught here.
+    """
+    scheme, sep, rest = text.partition("://")
+    if not sep or scheme not in SCHEMES:
+        raise ValueError(
+            f"not a ZeroMQ endpoint: {text!r} (expected tcp://HOST:PORT, ipc://PATH or "
+            "inproc://NAME)"
+        )
+    if not rest:
+        raise ValueError(f"{text!r} has nothing after {scheme}://")
+    if scheme in ("tcp", "ws", "wss"):
+        hostport = rest.split("/", 1)[0] if scheme != "tcp" else rest
+        host, colon, porttext = hostport.rpartition(":")
+        if not colon or not host:
+            raise ValueError(f"{text!r} needs HOST:PORT after {scheme}://")
+        if porttext != "*":
+            try:
+                value = int(porttext)
+            except ValueError:
+                raise ValueError(f"{text!r}: port {porttext!r} is not a number or *") from None
+            if not 1 <= value <= 65535:
+                raise ValueError(f"{text!r}: port {value} is out of range (1-65535, or *)")
+    return text
+
+
+def endpoint(text: str) -> str:
+    """A ZeroMQ endpoint flag (`--pub`, `--control`, ...)."""
+    try:
+        return check_endpoint(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None

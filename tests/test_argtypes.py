@@ -1,0 +1,81 @@
+"""Every flag is checked by its own type, and the error names the flag (exit 2, usage line)."""
+
+from __future__ import annotations
+
+import pytest
+
+from stiction import cli
+from stiction.daemon import main as daemon_main
+
+
+@pytest.mark.parametrize(
+    ("argv", "flag", "words"),
+    [
+        (["--pub", "tcp://127.0.0.1:99999"], "--pub", "out of range"),
+        (["--pub", "garbage"], "--pub", "not a ZeroMQ endpoint"),
+        (["--control", "tcp://127.0.0.1:port"], "--control", "not a number"),
+        (["--seconds", "-1"], "--seconds", "positive"),
+        (["--seconds", "0"], "--seconds", "positive"),
+        (["--rate", "nan"], "--rate", "finite"),
+        (["--hwm", "-5"], "--hwm", "at least 1"),
+        (["--hwm", "0"], "--hwm", "at least 1"),
+        (["--keepalive", "-1"], "--keepalive", "negative"),
+        (["--realtime", "100"], "--realtime", "0 to 99"),
+        (["--spin-ms", "-0.1"], "--spin-ms", "negative"),
+    ],
+)
+def test_stictiond_flags(
+    argv: list[str], flag: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        daemon_main.build_parser().parse_args(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: stictiond")
+    assert f"error: argument {flag}: " in err and words in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "flag", "words"),
+    [
+        (["listen", "tcp://127.0.0.1:99999"], "endpoint", "out of range"),
+        (["listen", "--count", "0"], "--count", "at least 1"),
+        (["listen", "--seconds", "-2"], "--seconds", "positive"),
+        (["record", "--out", "x.npz", "--count", "-1"], "--count", "at least 1"),
+        (["record", "garbage", "--out", "x.npz"], "endpoint", "not a ZeroMQ endpoint"),
+        (["replay", "f.npz", "--pub", "tcp://*:70000"], "--pub", "out of range"),
+        (["replay", "f.npz", "--loop", "-1"], "--loop", "negative"),
+        (["replay", "f.npz", "--speed", "0"], "--speed", "positive"),
+        (["web", "--pub", "nothing"], "--pub", "not a ZeroMQ endpoint"),
+        (["web", "--port", "65536"], "--port", "0-65535"),
+        (["proxy", "--frontend", "tcp://h:0", "--backend", "ipc://x"], "--frontend", "range"),
+    ],
+)
+def test_stiction_flags(
+    argv: list[str], flag: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exit_:
+        cli.build_parser().parse_args(argv)
+    assert exit_.value.code == 2
+    err = capsys.readouterr().err
+    assert err.startswith("usage: stiction")
+    assert f"error: argument {flag}: " in err and words in err
+
+
+@pytest.mark.parametrize(
+    "good", ["tcp://127.0.0.1:5555", "tcp://*:*", "tcp://[::1]:80", "ipc:///tmp/x", "inproc://a"]
+)
+def test_good_endpoints_pass(good: str) -> None:
+    assert daemon_main.build_parser().parse_args(["--pub", good]).pub == good
+
+
+def test_config_endpoint_names_its_key(tmp_path: pytest.TempPathFactory) -> None:
+    from pathlib import Path
+
+    from stiction.daemon.config import load_options
+    from stiction.errors import StictionError
+
+    path = Path(str(tmp_path)) / "d.toml"
+    path.write_text('[daemon]\npub = "tcp://127.0.0.1:99999"\n')
+    with pytest.raises(StictionError, match=r"daemon\.pub.*out of range"):
+        load_options(path)
