@@ -55,6 +55,19 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument(
         "--seconds", type=positive_float, metavar="S", help="stop after S seconds of ticks"
     )
+    p.add_argument(
+        "--wait-subscribers",
+        type=positive_int,
+        metavar="N",
+        help="--clock virtual: hold the first tick until N subscribers have subscribed "
+        "(a replay that runs before its readers subscribe loses its first frames)",
+    )
+    p.add_argument(
+        "--wait-timeout",
+        type=positive_float,
+        metavar="S",
+        help="give up waiting for subscribers after S seconds and start (default 30)",
+    )
     p.add_argument("--integrator", help="simulator integrator (see stiction simulate)")
     p.add_argument("--hwm", type=positive_int, help="PUB high-water mark per subscriber (messages)")
     p.add_argument(
@@ -108,7 +121,7 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
         opts.scene_from_flag = True
     for name in (
         "pub", "control", "clock", "rate", "seconds", "integrator", "hwm", "keepalive", "spin_ms",
-        "realtime",
+        "realtime", "wait_subscribers", "wait_timeout",
     ):  # fmt: skip
         value = getattr(args, name)
         if value is not None:

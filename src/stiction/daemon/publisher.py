@@ -3,6 +3,11 @@
 A subscriber that is slow, paused in a debugger or gone must not slow the
 100 Hz loop, so sends never block: the high-water mark bounds each
 subscriber's queue and ZeroMQ drops for that subscriber alone when it is full.
+
+The socket is an XPUB, which behaves as a PUB for sending but also hands the
+daemon each subscription as it arrives: `wait_subscribers` uses that so a
+virtual-clock replay can hold its first tick until its readers are
+subscribed (a PUB silently drops what it sends before a subscription lands).
 """
 
 from __future__ import annotations
@@ -18,7 +23,8 @@ from stiction.daemon.security import Guard
 
 class Publisher:
     def __init__(self, ctx: zmq.Context[Any], endpoint: str, guard: Guard, hwm: int) -> None:
-        self.sock = ctx.socket(zmq.PUB)
+        self.sock = ctx.socket(zmq.XPUB)
+        self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # every subscriber's, not just the first
         self.sock.sndhwm = hwm
         self.sock.linger = 0
         try:
@@ -39,6 +45,30 @@ class Publisher:
         except zmq.Again:
             self.dropped += 1
         return payload
+
+    def wait_subscribers(self, n: int, timeout: float) -> int:
+        """Block until `n` frame subscribers are in, or `timeout` seconds pass; returns how many.
+
+        A subscription counts when frames match it (its topic is empty or
+        starts with "frame"): a client's scene-only subscription does not.
+        """
+        import time
+
+        seen = 0
+        deadline = time.monotonic() + timeout
+        while seen < n:
+            left = deadline - time.monotonic()
+            if left <= 0 or not self.sock.poll(int(left * 1000) + 1):
+                break
+            note = self.sock.recv()
+            topic = note[1:]
+            # b"\x01" + topic subscribes (b"\x00" + topic unsubscribes)
+            frames = protocol.TOPIC_FRAME.startswith(topic) or topic.startswith(
+                protocol.TOPIC_FRAME
+            )
+            if note[:1] == b"\x01" and frames:
+                seen += 1
+        return seen
 
     def close(self) -> None:
         self.sock.close(linger=0)

@@ -91,6 +91,9 @@ class Options:
     hwm: int = 1000
     late_threshold_ms: float | None = None
     seconds: float | None = None
+    wait_subscribers: int = 0
+    """Virtual clock: hold the first tick until this many subscriptions arrived."""
+    wait_timeout: float = 30.0
     curve: CurveConfig = field(default_factory=CurveConfig)
     hotplug: bool = True
     config_path: Path | None = None
@@ -365,6 +368,14 @@ class Daemon:
 
     def _run(self) -> int:
         assert self.publisher is not None
+        if self.virtual and self.opts.wait_subscribers:
+            want = self.opts.wait_subscribers
+            got = self.publisher.wait_subscribers(want, self.opts.wait_timeout)
+            if got < want:
+                log.warning("wait_subscribers got=%d of %d after %g s: starting anyway", got,
+                            want, self.opts.wait_timeout)  # fmt: skip
+            else:
+                log.info("subscribers=%d ready", got)
         self._publish_scene()
         if not self.virtual:
             start = self.opts.start if self.opts.start is not None else self.clock.now() + 0.01
