@@ -68,6 +68,18 @@ def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
         stderr=log,
     )
     try:
+        # Ready when it answers: before its first tick it loads the compiled
+        # tick, which a loaded machine can stretch past a client's 1 s timeout.
+        from stiction.clients import control
+
+        for _ in range(120):
+            try:
+                control.request(ctl, "ping", timeout=0.5)
+                break
+            except control.ControlUnavailable:
+                assert proc.poll() is None, "stictiond exited before it answered"
+        else:
+            raise AssertionError("stictiond never answered ping")
         yield pub, ctl
     finally:
         proc.terminate()
