@@ -181,3 +181,13 @@ def test_any_text_is_samples_or_one_recording_error(text: str) -> None:
         list(iter_trace(io.StringIO(text), "t.csv"))
     except RecordingError as exc:
         assert "\n" not in str(exc)
+
+
+def test_ticks_end_at_the_last_sample_as_the_contract_says(tmp_path: Path) -> None:
+    """architecture.md: ticks run from the first sample time up to the last sample time."""
+    from stiction.sim.trace import TraceSample, tick_batches
+
+    samples = [TraceSample(i * 0.005, 0.0, 0.0, True) for i in range(1000)]  # last at 4.995 s
+    ticks = [t for t, _ in tick_batches(iter(samples), 100.0)]
+    assert len(ticks) == 500 and ticks[-1] == pytest.approx(4.99)
+    assert max(ticks) <= samples[-1].t

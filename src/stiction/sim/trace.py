@@ -210,8 +210,6 @@ def tick_batches(
     last_t = t0
     while True:
         t = t0 + tick * dt
-        if nxt is None and t > last_t + _SNAP:
-            break
         batch: list[TraceSample] = []
         while nxt is not None and nxt.t <= t + _SNAP:
             s = nxt
@@ -220,6 +218,10 @@ def tick_batches(
             batch.append(s)
             last_t = nxt.t
             nxt = next(it, None)
+        # No tick after the last sample (architecture.md): once the samples are
+        # exhausted, a tick past the last one ends the run, as before streaming.
+        if nxt is None and t > last_t + _SNAP:
+            break
         yield t, batch
         tick += 1
 
