@@ -18,8 +18,8 @@ def open_replay(
 ) -> ReportSource:
     """A SampleSource over the E: lines of `path`, with its own descriptor and device table entry.
 
-    A replacement descriptor from the device table is not applied: a
-    recording holds what the device sent with the descriptor it declared.
+    The device table's entry applies as it does live: its replacement
+    descriptor (a vendor report family's generated one, say) and its size.
     """
     rec = load_recording(path)
     entry = lookup(rec.vid, rec.pid)
