@@ -211,3 +211,39 @@ def test_any_mutated_scene_is_a_scene_or_one_scene_error(text: str) -> None:
 def test_any_text_is_a_scene_or_one_scene_error(text: str) -> None:
     with contextlib.suppress(SceneError):
         parse_scene(text, "t.toml")
+
+
+def test_a_config_that_is_not_a_regular_file_is_refused_unread(tmp_path: Path) -> None:
+    from stiction.daemon.config import ConfigError, load_options
+
+    fifo = tmp_path / "stictiond.toml"
+    os.mkfifo(fifo)
+    for path in (fifo, Path("/dev/zero"), tmp_path):
+        with pytest.raises(ConfigError, match="not a regular file"):
+            load_options(path)
+
+
+@settings(max_examples=200)
+@given(text=st.text(max_size=400))
+def test_any_config_text_is_options_or_one_config_error(text: str) -> None:
+    import tempfile
+
+    from stiction.daemon.config import ConfigError, load_options
+
+    with tempfile.TemporaryDirectory() as d:
+        path = Path(d) / "c.toml"
+        path.write_text(text)
+        try:
+            load_options(path)
+        except ConfigError as exc:
+            assert "\n" not in str(exc).strip()
+
+
+@settings(max_examples=200)
+@given(text=st.text(max_size=400))
+def test_any_device_table_overlay_is_a_table_or_one_device_error(text: str) -> None:
+    from stiction.drivers.hid.devices import parse_table
+    from stiction.errors import DeviceError
+
+    with contextlib.suppress(DeviceError):
+        parse_table(text, "overlay.toml")

@@ -97,7 +97,7 @@ def test_a_hostile_node_beside_a_tablet_is_reported_alone(tmp_path: Path, hid_da
     cmd += ["--", sys.executable, "-m", "stiction", "devices", "--json"]
     done = subprocess.run(cmd, capture_output=True, text=True, timeout=60)
     assert done.returncode == 0 and "Traceback" not in done.stderr, done.stderr
-    found = {d["path"]: d for d in map(json.loads, done.stdout.splitlines())}
+    found = {d["path"]: d for d in json.loads(done.stdout)}
     assert found[tablet.dev_node]["problem"] is None
     assert "no physical size" in found[hostile.dev_node]["problem"]
 

@@ -20,6 +20,7 @@ from stiction.daemon.security import CurveConfig
 from stiction.daemon.service import Options
 from stiction.errors import StictionError
 from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
+from stiction.userfiles import read_regular_text
 
 
 class ConfigError(StictionError):
@@ -97,13 +98,15 @@ class _Reader:
 
 def load_options(path: Path, base: Options | None = None) -> Options:
     """Read a config file into Options (starting from `base`)."""
+    # A regular file of at most 1 MiB: SIGHUP re-reads it on a reload worker,
+    # and a FIFO or /dev/zero named as the config must not block or fill it.
+    text = read_regular_text(path, 1 << 20, ConfigError, "config")
     try:
-        text = path.read_text(encoding="utf-8")
         data = tomllib.loads(text)
-    except OSError as exc:
-        raise ConfigError(f"{path}: cannot read config: {exc}") from None
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{path}: not valid TOML: {exc}") from None
+    except RecursionError:
+        raise ConfigError(f"{path}: arrays or tables nested too deeply") from None
     r = _Reader(path, text)
     r.table(data, (), {"daemon", "sim", "curve", "devices"})
     opts = base if base is not None else Options()

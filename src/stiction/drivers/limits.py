@@ -10,11 +10,10 @@ from __future__ import annotations
 
 import logging
 import math
-import os
-import stat
 from pathlib import Path
 
 from stiction.errors import RecordingError
+from stiction.userfiles import read_regular_text
 
 log = logging.getLogger(__name__)
 
@@ -32,36 +31,8 @@ MAX_SLOTS = 1024
 
 
 def read_text(path: str | Path, limit: int = MAX_RECORDING_BYTES, what: str = "recording") -> str:
-    """A regular file's text, refused unread when it is not one or is larger than `limit`.
-
-    Opened non-blocking so that a FIFO with no writer cannot hang the caller.
-    """
-    p = Path(path)
-    try:
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOCTTY)
-    except OSError as exc:
-        raise RecordingError(f"cannot read {p}: {exc.strerror or exc}") from None
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise RecordingError(f"{p}: not a regular file; a {what} must be a file")
-        if st.st_size > limit:
-            raise RecordingError(f"{p}: {st.st_size} bytes; a {what} is at most {limit}")
-        chunks = []
-        size = 0
-        while True:
-            chunk = os.read(fd, 1 << 20)
-            if not chunk:
-                break
-            size += len(chunk)
-            if size > limit:
-                raise RecordingError(f"{p}: grew past {limit} bytes while being read")
-            chunks.append(chunk)
-    except OSError as exc:
-        raise RecordingError(f"cannot read {p}: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
-    return b"".join(chunks).decode("utf-8", errors="replace")
+    """A regular file's text, refused unread when it is not one or is larger than `limit`."""
+    return read_regular_text(path, limit, RecordingError, what)
 
 
 class TimeCheck:

@@ -10,8 +10,6 @@ unknown keys are errors rather than silently ignored typos.
 from __future__ import annotations
 
 import math
-import os
-import stat
 import tomllib
 from collections.abc import Mapping
 from pathlib import Path
@@ -33,6 +31,7 @@ from stiction.scene.model import (
     Scene,
     Shape,
 )
+from stiction.userfiles import read_regular_text
 
 EFFECTS = (STICK_SLIP, STRING, PRESSURE_LOAD)
 DEFAULT_DISPLAY = (1920, 1080)
@@ -201,27 +200,7 @@ def load_scene(path: str | Path) -> Scene:
     It is opened non-blocking so that opening a FIFO cannot wait for a writer.
     """
     p = Path(path)
-    try:
-        fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOCTTY)
-    except OSError as exc:
-        raise SceneError(f"{p}: cannot read scene: {exc.strerror or exc}") from None
-    try:
-        st = os.fstat(fd)
-        if not stat.S_ISREG(st.st_mode):
-            raise SceneError(f"{p}: not a regular file; a scene must be a .toml file")
-        if st.st_size > MAX_SCENE_BYTES:
-            raise SceneError(f"{p}: {st.st_size} bytes; a scene is at most {MAX_SCENE_BYTES}")
-        data = os.read(fd, MAX_SCENE_BYTES + 1)
-    except OSError as exc:
-        raise SceneError(f"{p}: cannot read scene: {exc.strerror or exc}") from None
-    finally:
-        os.close(fd)
-    if len(data) > MAX_SCENE_BYTES:
-        raise SceneError(f"{p}: larger than {MAX_SCENE_BYTES} bytes; a scene is at most that")
-    try:
-        text = data.decode("utf-8")
-    except UnicodeDecodeError as exc:
-        raise SceneError(f"{p}: not UTF-8 text: {exc}") from None
+    text = read_regular_text(p, MAX_SCENE_BYTES, SceneError, "scene")
     return parse_scene(text, str(p))
 
 
