@@ -14,6 +14,8 @@ import sys
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import MAX_REPORT_COUNT, parse_descriptor
@@ -122,3 +124,30 @@ def test_a_probe_that_fails_unexpectedly_is_one_devices_problem(
     odd, fine = hidraw_backend.discover()
     assert odd.kind == "unknown" and "ZeroDivisionError" in (odd.problem or "")
     assert fine.problem is None
+
+
+_REAL = Path(__file__).resolve().parents[3] / "shared/data/hid/xp-pen-artist-10s.hid"
+
+
+@given(
+    edits=st.lists(
+        st.tuples(st.integers(0, 40), st.sampled_from(["E:", "R:", "I:", "N:", "D:", "#"]),
+                  st.text(max_size=40)),
+        max_size=4,
+    )
+)  # fmt: skip
+def test_any_edited_hid_recorder_file_is_a_recording_or_one_error(
+    edits: list[tuple[int, str, str]],
+) -> None:
+    """Real lines with a few replaced by arbitrary ones of a known tag, so the
+    parser gets past the first line before it meets them."""
+    from stiction.drivers.hid.recording import parse_recording
+    from stiction.errors import StictionError
+
+    lines = _REAL.read_text().splitlines()[:60] if _REAL.is_file() else ["R: 0"]
+    for i, tag, text in edits:
+        lines[min(i, len(lines) - 1)] = f"{tag} {text}"
+    try:
+        parse_recording("\n".join(lines), "r.hid")
+    except StictionError as exc:
+        assert "\n" not in str(exc)

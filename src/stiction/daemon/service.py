@@ -159,6 +159,7 @@ class Daemon:
         self._stop = threading.Event()
         self._reload = threading.Event()
         self._reload_worker: threading.Thread | None = None
+        self._reload_wanted = threading.Event()
         self._tasks: queue.SimpleQueue[Callable[[], None]] = queue.SimpleQueue()
         self._started = time.monotonic()
         self.hotplug: Any = None
@@ -328,6 +329,7 @@ class Daemon:
     # ------------------------------------------------------------ control flags
     def request_stop(self) -> None:
         self._stop.set()
+        self._reload_wanted.set()  # lets the reload thread see the stop
         self.waker.wake()
 
     def request_reload(self) -> None:
@@ -691,20 +693,28 @@ class Daemon:
                 log.exception("task_failed")
 
     def _start_reload(self) -> None:
-        """Read and compile off the loop thread; one reload at a time."""
-        worker = self._reload_worker
-        if worker is not None and worker.is_alive():
-            self._reload.set()  # again when the running one has finished
-            return
+        """Read and compile off the loop thread, on one long-lived reload thread.
 
-        def run() -> None:
-            try:
-                self.reload()
-            except Exception:
-                log.exception("reload_failed")
+        One thread for every SIGHUP rather than a new one each: a storm of
+        signals costs no thread churn. Requests that come while a reload runs
+        are coalesced into one more.
+        """
+        self._reload_wanted.set()
+        if self._reload_worker is None:
 
-        self._reload_worker = threading.Thread(target=run, name="reload", daemon=True)
-        self._reload_worker.start()
+            def work() -> None:
+                while not self._stop.is_set():
+                    self._reload_wanted.wait()
+                    self._reload_wanted.clear()
+                    if self._stop.is_set():
+                        return
+                    try:
+                        self.reload()
+                    except Exception:
+                        log.exception("reload_failed")
+
+            self._reload_worker = threading.Thread(target=work, name="reload", daemon=True)
+            self._reload_worker.start()
 
     def _nth_name(self, slot: DeviceSlot) -> str:
         """The n-th device of one name is `name#n` (A, B, A: A, B, A#2), as protocol.md says."""
