@@ -12,8 +12,12 @@ while, in parallel threads,
   versions and sends SIGHUP;
 - a **subscriber abuser** keeps one subscriber that never reads, connects
   and drops subscribers, and floods in bursts of 50 new ones;
-- an **accountant** subscribes from the start and checks that the frames of
-  the one device come with consecutive tick numbers (no frame lost);
+- a **device storm** (where umockdev is installed: _device_storm.py) plugs a
+  mocked evdev pen in, plays a stroke, and unplugs it mid-stroke, again and
+  again, through the daemon's own udev monitor and python-evdev reads;
+- an **accountant** subscribes from the start and follows every device's
+  chain of frames (tick, prev_tick): no frame lost, every plug read, every
+  unplug closed with an "up";
 
 and a bare sleeping loop runs in its own process on the same grid, so late
 ticks can be told from the machine's own stalls. Printed and written to
@@ -21,7 +25,7 @@ faults.{json,txt}: inputs tried, crashes (the daemon exited), hangs (a
 request unanswered within 5 s, or ticks not advancing for 2 s), late ticks
 of the daemon against the bare loop, the daemon's RSS at the start and the
 end, and the frames accounted for. Targets: 0 crashes, 0 hangs, RSS growth
-under 5%, every frame accounted for.
+under 5%, every frame accounted for, every plug read and every unplug closed.
 """
 
 from __future__ import annotations
@@ -43,9 +47,12 @@ import msgpack
 import zmq
 
 from stiction import protocol
+from stiction.bench._device_storm import STORM_NAME, DeviceStorm, storm_problem
 from stiction.bench._support import results_dir
+from stiction.drivers.evdev.source import slug
 
 REPLY_DEADLINE_S = 5.0
+STORM_DEVICE = slug(STORM_NAME)  # the storm pen's name in frames
 GOOD_SCENE = '[scene]\nname = "good"\noutside = "m"\n[materials.m]\nmu_s = 0.7\nmu_k = 0.1\n'
 BAD_SCENES = [
     "a = " + "[" * 5000 + "]" * 5000 + "\n",
@@ -160,7 +167,13 @@ def abuse_subscribers(ctx: zmq.Context[Any], pub: str, stop: threading.Event,
 
 
 class Accountant(threading.Thread):
-    """Reads every frame; counts gaps in the tick sequence of the one device."""
+    """Reads every frame and follows each device's chain of ticks.
+
+    A frame names the tick of its device's previous frame (`prev_tick`), so a
+    frame lost anywhere, a device's absence included, shows as a break in the
+    chain. The storm pen's sessions are counted too: its first frame after a
+    closing "up" starts one.
+    """
 
     def __init__(self, ctx: zmq.Context[Any], pub: str) -> None:
         super().__init__(daemon=True)
@@ -169,24 +182,42 @@ class Accountant(threading.Thread):
         self.sock.connect(pub)
         self.sock.setsockopt(zmq.SUBSCRIBE, protocol.TOPIC_FRAME)
         self.stop = threading.Event()
-        self.frames = 0
+        self.frames: dict[str, int] = {}
+        self.first: dict[str, int] = {}
+        self.last: dict[str, int] = {}
         self.gaps = 0
-        self.first_tick: int | None = None
-        self.last_tick: int | None = None
+        self.storm_sessions = 0
+        self.storm_ups = 0
+        self._storm_open = False
 
     def run(self) -> None:
         while not self.stop.is_set():
             if not self.sock.poll(100):
                 continue
             _, payload = self.sock.recv_multipart()
-            tick = int(protocol.decode(payload)["tick"])
-            if self.first_tick is None:
-                self.first_tick = tick
-            if self.last_tick is not None and tick != self.last_tick + 1:
-                self.gaps += 1
-            self.last_tick = tick
-            self.frames += 1
+            frame = protocol.decode(payload)
+            self.account(frame)
         self.sock.close(0)
+
+    def account(self, frame: dict[str, Any]) -> None:
+        dev, tick = str(frame["device"]), int(frame["tick"])
+        last = self.last.get(dev)
+        if last is not None and frame.get("prev_tick") != last:
+            self.gaps += 1
+        self.first.setdefault(dev, tick)
+        self.last[dev] = tick
+        self.frames[dev] = self.frames.get(dev, 0) + 1
+        if dev == STORM_DEVICE:
+            if not self._storm_open:
+                self.storm_sessions += 1
+                self._storm_open = True
+            if any(c.get("phase") == "up" for c in frame.get("contacts", ())):
+                self.storm_ups += 1
+                self._storm_open = False
+
+    @property
+    def total(self) -> int:
+        return sum(self.frames.values())
 
 
 def _ask(ctx: zmq.Context[Any], ctl: str, op: str) -> dict[str, Any] | None:
@@ -202,7 +233,12 @@ def _ask(ctx: zmq.Context[Any], ctl: str, op: str) -> dict[str, Any] | None:
         sock.close(0)
 
 
-def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
+def _synthetic_name(acc: Accountant) -> str | None:
+    names = [d for d in acc.frames if d != STORM_DEVICE]
+    return names[0] if names else None
+
+
+def run(seconds: float, tmp: Path, seed: int = 1, storm: bool = True) -> dict[str, Any]:
     from stiction.bench.daemon import BareProcess
 
     pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
@@ -210,13 +246,18 @@ def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
     scene.write_text(GOOD_SCENE)
     log_path = tmp / "stictiond.log"
     log_file = log_path.open("w")  # a file, not a pipe: an undrained pipe would block its logging
+    why_no_storm = storm_problem() if storm else "not asked for (--no-storm)"
+    devices = DeviceStorm(tmp, seconds, seed) if why_no_storm is None else None
+    argv = [sys.executable, "-m", "stiction.daemon.main", "--device", "synthetic:demo",
+            "--scene", str(scene), "--pub", pub, "--control", ctl, "--keepalive", "0"]  # fmt: skip
+    if devices is not None:
+        argv += ["--device", f"name:{STORM_NAME}"]  # waits for it, reopens it on every plug
     proc = subprocess.Popen(
-        [sys.executable, "-m", "stiction.daemon.main", "--device", "synthetic:demo",
-         "--scene", str(scene), "--pub", pub, "--control", ctl, "--keepalive", "0"],
-        stderr=log_file, text=True,
-    )  # fmt: skip
+        argv, stderr=log_file, text=True, env=devices.daemon_env() if devices else None
+    )
     ctx = zmq.Context()
     c = Counters()
+    storm_summary: dict[str, Any] = {}
     try:
         first = None
         for _ in range(60):
@@ -242,6 +283,8 @@ def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
         ]
         for w in workers:
             w.start()
+        if devices is not None:
+            devices.go()
         t_end = time.monotonic() + seconds
         last_ticks, last_change = -1, time.monotonic()
         while time.monotonic() < t_end and proc.poll() is None:
@@ -262,13 +305,17 @@ def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
         stop.set()
         for w in workers:
             w.join(30)
+        if devices is not None:
+            storm_summary = devices.stop()
+            time.sleep(0.5)  # the last unplug's closing frame
         crashed = proc.poll() is not None
         end = None if crashed else _ask(ctx, ctl, "stats")
         rss1 = 0 if crashed else _rss_kib(proc.pid)
-        if end is not None:  # let the accountant catch up with the last tick stats saw
+        synthetic = _synthetic_name(accountant)
+        if end is not None and synthetic is not None:  # catch up with the last tick stats saw
             last = int(end["stats"]["ticks"]) - 1
             for _ in range(300):
-                if accountant.last_tick is not None and accountant.last_tick >= last:
+                if accountant.last.get(synthetic, -1) >= last:
                     break
                 time.sleep(0.1)
         accountant.stop.set()
@@ -282,20 +329,40 @@ def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
         except subprocess.TimeoutExpired:
             proc.kill()
             proc.wait()
+        if devices is not None:
+            devices.close()
         log_file.close()
         err = log_path.read_text(errors="replace")
         ctx.term()
     v = c.values
     stats_end = end["stats"] if end else {}
+    synthetic = _synthetic_name(accountant)
+    span = (
+        accountant.last[synthetic] - accountant.first[synthetic] + 1 if synthetic is not None else 0
+    )
+    storm_frames = accountant.frames.get(STORM_DEVICE, 0)
+    plugs = int(storm_summary.get("plugs", 0))
     return {
         "seconds": seconds,
         "inputs_tried": v.get("requests", 0)
         + v.get("reloads", 0)
-        + v.get("subscribers_flooded", 0),
+        + v.get("subscribers_flooded", 0)
+        + plugs,
         "control_requests": v.get("requests", 0),
         "refused": v.get("refused", 0),
         "sighup_reloads": v.get("reloads", 0),
         "subscribers_flooded": v.get("subscribers_flooded", 0),
+        "device_storm": None
+        if devices is None
+        else {
+            "plugs": plugs,
+            "unplugs": int(storm_summary.get("unplugs", 0)),
+            "controller_error": storm_summary.get("error", "no answer"),
+            "sessions_seen": accountant.storm_sessions,
+            "closing_ups_seen": accountant.storm_ups,
+            "frames": storm_frames,
+        },
+        "device_storm_skipped": why_no_storm,
         "crashes": int(crashed or proc.returncode not in (0, None)),
         "hangs": v.get("hangs", 0),
         "tracebacks_logged": err.count("Traceback"),
@@ -308,38 +375,61 @@ def run(seconds: float, tmp: Path, seed: int = 1) -> dict[str, Any]:
         "rss_start_kib": rss0,
         "rss_end_kib": rss1,
         "rss_growth_pct": (rss1 - rss0) / rss0 * 100 if rss0 and rss1 else None,
-        "frames_accounted": accountant.frames,
-        "frames_published": (
-            accountant.last_tick - accountant.first_tick + 1
-            if accountant.last_tick is not None and accountant.first_tick is not None
-            else 0
-        ),
+        "frames_accounted": accountant.total,
+        # the synthetic pen ticks every period; the storm pen's frames are chained by prev_tick
+        "frames_published": span + storm_frames,
         "tick_gaps": accountant.gaps,
         "control_errors_counted": int(stats_end.get("control_errors", 0)),
         "scene_errors_counted": int(stats_end.get("scene_errors", 0)),
     }
 
 
-def _targets(r: dict[str, Any]) -> dict[str, bool]:
+def _targets(r: dict[str, Any]) -> dict[str, bool | None]:
+    """None: not run here (the device storm without umockdev)."""
     growth = r["rss_growth_pct"]
+    storm = r["device_storm"]
     return {
         "0 crashes": r["crashes"] == 0,
         "0 hangs": r["hangs"] == 0,
         "RSS growth < 5%": growth is not None and growth < 5.0,
         "every frame accounted for": r["tick_gaps"] == 0
         and 0 < r["frames_accounted"] == r["frames_published"],
+        "every plug read, every unplug closed": None
+        if storm is None
+        else storm["controller_error"] is None
+        and 0 < storm["plugs"] == storm["sessions_seen"]
+        and storm["unplugs"] == storm["closing_ups_seen"],
     }
+
+
+def _verdict(ok: bool | None) -> str:
+    return "NOT RUN" if ok is None else "PASS" if ok else "FAIL"
+
+
+def _storm_line(r: dict[str, Any]) -> str:
+    storm = r["device_storm"]
+    if storm is None:
+        return f"device storm           not run: {r['device_storm_skipped']}"
+    error = f"; controller error: {storm['controller_error']}" if storm["controller_error"] else ""
+    return (
+        f"device storm           {storm['plugs']:>8}  plugs ({storm['sessions_seen']} read), "
+        f"{storm['unplugs']} unplugs ({storm['closing_ups_seen']} closed with up), "
+        f"{storm['frames']} frames{error}"
+    )
 
 
 def main(argv: list[str]) -> int:
     ap = argparse.ArgumentParser(prog="stiction bench faults", description=__doc__)
     ap.add_argument("--seconds", type=float, default=60.0, help="how long the attack lasts")
     ap.add_argument("--json", action="store_true", help="print the results as JSON")
+    ap.add_argument(
+        "--no-storm", action="store_true", help="leave out the umockdev device unplug/replug storm"
+    )
     args = ap.parse_args(argv)
     if not args.seconds > 0:
         ap.error("--seconds must be > 0")
     with tempfile.TemporaryDirectory(prefix="sf-") as tmp:
-        r = run(args.seconds, Path(tmp))
+        r = run(args.seconds, Path(tmp), storm=not args.no_storm)
     targets = _targets(r)
     r["targets"] = targets
     load = os.getloadavg()[0]
@@ -352,6 +442,7 @@ def main(argv: list[str]) -> int:
         f"inputs tried           {r['inputs_tried']:>8}  (control {r['control_requests']}, "
         f"SIGHUP {r['sighup_reloads']}, subscribers {r['subscribers_flooded']})",
         f"refused in words       {r['refused']:>8}",
+        _storm_line(r),
         f"crashes                {r['crashes']:>8}",
         f"hangs                  {r['hangs']:>8}  {r['hang_kinds']}",
         f"tracebacks in its log  {r['tracebacks_logged']:>8}",
@@ -361,7 +452,7 @@ def main(argv: list[str]) -> int:
         f"frames accounted for   {r['frames_accounted']:>8}  of {r['frames_published']} "
         f"published while subscribed (tick gaps: {r['tick_gaps']})",
         "",
-        "targets: " + ", ".join(f"{k} {'PASS' if ok else 'FAIL'}" for k, ok in targets.items()),
+        "targets: " + ", ".join(f"{k} {_verdict(ok)}" for k, ok in targets.items()),
     ]
     table = "\n".join(lines)
     out = results_dir()
