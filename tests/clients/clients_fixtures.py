@@ -8,6 +8,7 @@ would shadow theirs (pytest keeps one ``conftest`` in sys.modules).
 
 from __future__ import annotations
 
+import contextlib
 import shutil
 import subprocess
 import tempfile
@@ -16,7 +17,14 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from clients_support import CHROMIUM, CHROMIUM_ARGS, DEMO_SCENE, STICTIOND, FakeDaemon
+from clients_support import (
+    CHROMIUM,
+    CHROMIUM_ARGS,
+    DEMO_SCENE,
+    STICTIOND,
+    WAITED_FOR,
+    FakeDaemon,
+)
 
 
 @pytest.fixture
@@ -53,15 +61,15 @@ def browser() -> Iterator[Any]:
         b.close()
 
 
-@pytest.fixture
-def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
-    """The real daemon on the synthetic pen with the demo scene, for 20 s at most."""
+@contextlib.contextmanager
+def running_stictiond(short_dir: Path, *device_args: str) -> Iterator[tuple[str, str]]:
+    """The real daemon for 20 s at most, yielded once it answers ping."""
     pub, ctl = f"ipc://{short_dir}/d-pub", f"ipc://{short_dir}/d-ctl"
     log = (short_dir / "stictiond.log").open("wb")  # a file: a full pipe would stall it
     proc = subprocess.Popen(
         [
             *(str(STICTIOND), "--clock", "real", "--seconds", "20", "--no-hotplug"),
-            *("--device", "synthetic:demo", "--scene", str(DEMO_SCENE)),
+            *device_args,
             *("--pub", pub, "--control", ctl),
         ],
         stdout=subprocess.DEVNULL,
@@ -85,3 +93,19 @@ def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
         proc.terminate()
         proc.wait(30)
         log.close()
+
+
+@pytest.fixture
+def stictiond(short_dir: Path) -> Iterator[tuple[str, str]]:
+    """The real daemon on the synthetic pen with the demo scene."""
+    with running_stictiond(
+        short_dir, "--device", "synthetic:demo", "--scene", str(DEMO_SCENE)
+    ) as eps:
+        yield eps
+
+
+@pytest.fixture
+def stictiond_without_device(short_dir: Path) -> Iterator[tuple[str, str]]:
+    """The real daemon waiting for a tablet that never comes: it publishes nothing."""
+    with running_stictiond(short_dir, "--device", WAITED_FOR) as eps:
+        yield eps

@@ -235,4 +235,5 @@ CHROMIUM_ARGS = [
 
 
 STICTIOND = Path(sys.executable).with_name("stictiond")
+WAITED_FOR = "name:A tablet not plugged in"  # a device spec that never turns up
 DEMO_SCENE = REPO / "src" / "stiction" / "scene" / "examples" / "demo.toml"

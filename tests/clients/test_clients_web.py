@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from clients_support import SCENE, FakeDaemon, make_frame, scene_message
+from clients_support import SCENE, WAITED_FOR, FakeDaemon, make_frame, scene_message
 
 from stiction import protocol
 from stiction.clients import SceneMessage, Subscriber, recording
@@ -198,10 +198,30 @@ def test_replayed_stroke_is_drawn_where_the_frames_say(browser: Any, short_dir: 
         page.wait_for_function("document.body.classList.contains('exact')", timeout=10_000)
         assert page.evaluate("[view.style.width, view.style.height]") == ["400px", "300px"]
         assert not page.is_visible("#status")
-        # When the stream stops the page says so, in words.
-        page.wait_for_function("window.stiction.status === 'gone'", timeout=30_000)
+        # When the stream stops the page says so, in words: the replay still
+        # answers on its control endpoint, and says that its device has ended.
+        page.wait_for_function("window.stiction.reason === 'ended'", timeout=30_000)
+        assert page.evaluate("window.stiction.status") == "gone"
         assert page.is_visible("#banner")
-        assert "is stictiond running?" in page.inner_text("#banner")
+        assert "its devices have ended" in page.inner_text("#banner")
+
+
+def test_the_page_tells_a_daemon_without_device_from_no_daemon(
+    browser: Any, stictiond_without_device: tuple[str, str], short_dir: Path
+) -> None:
+    pub, ctl = stictiond_without_device
+    with web_page(browser, pub, ctl, 800, 600) as (_, page):
+        page.wait_for_function("window.stiction.reason === 'no-device'", timeout=30_000)
+        assert page.evaluate("window.stiction.status") == "waiting"
+        banner = page.inner_text("#banner")
+        assert f"has no device yet: waiting for {WAITED_FOR} (waiting)" in banner, banner
+        assert "has no device yet" in page.inner_text("#status")
+    nobody = f"ipc://{short_dir}/nobody-pub", f"ipc://{short_dir}/nobody-ctl"
+    with web_page(browser, *nobody, 800, 600) as (_, page):
+        page.wait_for_function("window.stiction.reason === 'no-daemon'", timeout=30_000)
+        assert page.evaluate("window.stiction.status") == "gone"
+        banner = page.inner_text("#banner")
+        assert f"no daemon answers at {nobody[1]}: is stictiond running?" in banner, banner
 
 
 def test_bridge_survives_bad_frames_and_reports_a_newer_schema(

@@ -52,6 +52,7 @@ def _listen(args: argparse.Namespace) -> int:
         devices=args.device or None,
         scenes=args.scenes,
         curve=_curve(args),
+        control=None if args.no_control else (args.control or default_control(args.endpoint)),
     )
 
 
@@ -132,6 +133,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--seconds", type=positive_float, help="stop after S seconds")
     p.add_argument("--device", action="append", help="only this device (repeatable)")
     p.add_argument("--scenes", action="store_true", help="also print scene messages")
+    p.add_argument(
+        "--control",
+        type=endpoint,
+        help="daemon control endpoint, asked why no frame came "
+        f"(default: {protocol.DEFAULT_CONTROL} when the endpoint is the default)",
+    )
+    p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
     _add_curve(p)
     p.set_defaults(func=_listen)
 

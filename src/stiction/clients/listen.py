@@ -44,11 +44,14 @@ def listen(
     scenes: bool = False,
     out: TextIO | None = None,
     curve: CurveKeys | None = None,
+    control: str | None = None,
 ) -> int:
     """Print frames until ``count`` frames or ``seconds`` pass (or forever).
 
     Returns 1, with a hint on stderr, when ``seconds`` passed without any
-    frame: a script can tell "daemon silent" from "daemon talked".
+    frame: a script can tell "daemon silent" from "daemon talked". With a
+    ``control`` endpoint the hint says which: no daemon, no device yet, or
+    a daemon that publishes elsewhere.
     """
     out = out or sys.stdout
     kinds = ("frame", "scene") if scenes else ("frame",)
@@ -72,9 +75,9 @@ def listen(
             file=sys.stderr,
         )
     if n == 0 and seconds is not None and (count is None or count > 0):
-        print(
-            f"stiction listen: no frames from {endpoint} in {seconds:g} s; is stictiond running?",
-            file=sys.stderr,
-        )
+        from stiction.clients.diagnose import why_silent
+
+        _, why = why_silent(endpoint, control, curve=curve)
+        print(f"stiction listen: no frames in {seconds:g} s: {why}", file=sys.stderr)
         return 1
     return 0

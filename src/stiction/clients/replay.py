@@ -41,6 +41,7 @@ class ReplayState:
     subscribers: int = 0
     last_frames: dict[str, dict[str, Any]] = field(default_factory=dict)
     scene: dict[str, Any] | None = None
+    ended: bool = False
 
 
 def _bind(sock: zmq.Socket[Any], endpoint: str, what: str) -> None:
@@ -132,7 +133,7 @@ class Replayer:
                 return protocol.error_reply("the recording holds no parameters")
             return protocol.ok_reply(**params)
         if op == "devices":
-            return protocol.ok_reply(devices=meta.get("devices") or [])
+            return protocol.ok_reply(devices=self._devices())
         if op == "stats":
             return protocol.ok_reply(stats={"replay": True, "published": st.sent})
         if op == "snapshot":
@@ -141,6 +142,19 @@ class Replayer:
                 snap["scene"] = st.scene
             return protocol.ok_reply(**snap)
         return protocol.error_reply(f"{op!r} is not available from a replay (read-only)")
+
+    def _devices(self) -> list[dict[str, Any]]:
+        """The recorded devices, with the replay's own state: "open" while it plays,
+        "ended" once it has, so a client can tell a finished replay from an outage."""
+        listed = [d for d in self.rec.meta.get("devices") or [] if isinstance(d, dict)]
+        names = {d.get("name") for d in listed}
+        listed += [  # a recording made without the control endpoint lists none
+            {"name": n, "spec": "replay", "kind": None, "surface_m": None, "mapping": None}
+            for n in self.state.last_frames
+            if n not in names
+        ]
+        state = "ended" if self.state.ended else "open"
+        return [{**d, "state": state} for d in listed]
 
     def wait_for_subscriber(self, timeout: float | None) -> bool:
         end = None if timeout is None else time.monotonic() + timeout
@@ -179,6 +193,7 @@ class Replayer:
             done += 1
             if progress is not None:
                 progress(done)
+        self.state.ended = True
         return self.state.sent
 
     def _one_pass(self, speed: float, fast: bool) -> None:

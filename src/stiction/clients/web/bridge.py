@@ -23,6 +23,7 @@ from stiction import protocol
 from stiction.clients import control as control_mod
 from stiction.clients.aio import AsyncSubscriber
 from stiction.clients.curve import CurveKeys
+from stiction.clients.diagnose import why_silent_async
 from stiction.clients.messages import Frame, SceneMessage, wire_to_json
 from stiction.errors import ProtocolError
 
@@ -78,6 +79,8 @@ class Bridge:
         self.pages: set[Page] = set()
         self._last_frame_at: float | None = None
         self._started_at: float | None = None
+        self._diagnosed_at: float | None = None
+        self._diagnosing = False
         self.silent_after = SILENT_AFTER
         self._tasks: set[asyncio.Future[None]] = set()
         self._sub: AsyncSubscriber | None = None
@@ -94,7 +97,8 @@ class Bridge:
             if not page.mark(key):
                 self.stats.skipped_for_slow_pages += 1
 
-    def _set_status(self, state: str, message: str) -> None:
+    def _set_status(self, state: str, message: str, reason: str | None = None) -> None:
+        """`reason` is the silence diagnosis (diagnose.Silence) where one was made."""
         self.stats.state = state
         self._status_message = message
         self._publish(
@@ -106,6 +110,7 @@ class Bridge:
                     "message": message,
                     "pub": self.pub,
                     "control": self.control,
+                    "reason": reason,
                 }
             ),
         )
@@ -206,20 +211,51 @@ class Bridge:
                 self._tasks.add(task)
                 task.add_done_callback(self._tasks.discard)
         self._last_frame_at = now
+        self._diagnosed_at = None
         self._publish(f"frame:{msg.device}", self.frame_json(msg, now))
         self._count_errors()
 
     def _check_silence(self, now: float) -> None:
-        if self.stats.state == "gone":
-            return
+        """Past `silent_after` without a frame: say so at once, then ask the daemon why.
+
+        The control endpoint tells "no daemon" (gone) from "a daemon with no
+        device yet" (waiting, as a daemon without devices publishes nothing),
+        asked again every `silent_after` while the silence lasts.
+        """
         since = self._last_frame_at
         if since is None:
             since = self._started_at
             if since is None:
                 self._started_at = since = now
-        if now - since >= self.silent_after:
+        if now - since < self.silent_after:
+            return
+        if self._diagnosed_at is None and self.stats.state != "gone":
             what = "stopped sending frames" if self._last_frame_at else "sends no frames"
             self._set_status("gone", f"the daemon at {self.pub} {what}: is stictiond running?")
+        if self._diagnosing or (
+            self._diagnosed_at is not None and now - self._diagnosed_at < self.silent_after
+        ):
+            return
+        try:
+            asyncio.get_running_loop()
+        except RuntimeError:  # called outside the bridge's loop (a unit test): no diagnosis
+            return
+        self._diagnosing = True
+        task = asyncio.ensure_future(self._diagnose(now))
+        self._tasks.add(task)
+        task.add_done_callback(self._tasks.discard)
+
+    async def _diagnose(self, now: float) -> None:
+        try:
+            kind, message = await why_silent_async(self.pub, self.control, curve=self.curve)
+        finally:
+            self._diagnosing = False
+        if self._last_frame_at is not None and self._last_frame_at > now:
+            return  # frames came back while we asked
+        self._diagnosed_at = now
+        state = "waiting" if kind == "no-device" else "gone"
+        if (state, message) != (self.stats.state, self._status_message):
+            self._set_status(state, message, kind)
 
     # -- the WebSocket side -----------------------------------------------------
 

@@ -71,9 +71,12 @@ function onMessage(msg, now) {
       sizeCanvas();
       break;
     case "status":
-      state.link = { state: msg.state, message: msg.message };
+      state.link = { state: msg.state, message: msg.message, reason: msg.reason || null };
       window.stiction.status = msg.state;
-      showBanner(msg.state === "gone" || msg.state === "error" ? msg.message : "");
+      window.stiction.reason = msg.reason || null;
+      // "no-device": the daemon answers but has nothing to read yet; say so as loudly as an outage.
+      const loud = msg.state === "gone" || msg.state === "error" || msg.reason === "no-device";
+      showBanner(loud ? msg.message : "");
       break;
     default:
       break;

@@ -30,7 +30,9 @@ export function statusText({
   link, frames, drawRate, receiveRate, tickRate, latencyMs, screenMs, now = 0, receivedAt = null,
 }) {
   if (link.state === "connecting" || (link.state !== "gone" && receivedAt === null && !frames.length)) {
-    const what = link.state === "connecting" ? "connecting to the bridge (stiction web)…" : "waiting for the first frame from stictiond…";
+    const what = link.state === "connecting"
+      ? "connecting to the bridge (stiction web)…"
+      : link.reason === "no-device" ? link.message : "waiting for the first frame from stictiond…";
     return { state: link.state === "connecting" ? "connecting" : link.state, text: `${what}\n ` };
   }
   const silentMs = receivedAt === null ? null : now - receivedAt;
