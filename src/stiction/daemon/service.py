@@ -810,12 +810,14 @@ class Daemon:
 
 def _discover_specs() -> list[str]:
     """Paths of the usable tablets, touchpads and touchscreens present now."""
-    from stiction.drivers.cli import discover_all
+    from stiction.drivers.discovery import discover_all
 
-    usable = [i for i in discover_all() if i.problem is None and i.kind != "other"]
-    # A tablet shows up both as hidraw and as evdev nodes; read it once, through hidraw.
-    on_hidraw = {(i.vid, i.pid) for i in usable if i.backend == "hidraw"}
-    return [i.path for i in usable if i.backend == "hidraw" or (i.vid, i.pid) not in on_hidraw]
+    # A tablet shows up both as hidraw and as evdev nodes; discovery picks the
+    # one to read it through (stiction.drivers.discovery has the rule).
+    chosen = [i for i in discover_all() if i.chosen and i.problem is None]
+    for i in chosen:
+        log.debug("device_found node=%s backend=%s reason=%s", i.path, i.backend, i.reason)
+    return [i.path for i in chosen]
 
 
 def _auto_devices() -> list[DeviceConfig]:

@@ -55,10 +55,19 @@ class Finding:
     problem: str | None = None
     detail: str = ""
     fix: str = ""
+    chosen: bool = True
+    reason: str = ""
+    """Whether stictiond reads the device through this node, and why (or what it
+    reads instead): a device has a hidraw and an evdev node, and only one is used."""
 
     @property
     def ok(self) -> bool:
         return self.problem is None
+
+    @property
+    def blocks(self) -> bool:
+        """A problem that stops the device being read (one on an unused node does not)."""
+        return self.chosen and not self.ok
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -71,6 +80,8 @@ class Finding:
             "problem": self.problem,
             "detail": self.detail,
             "fix": self.fix,
+            "chosen": self.chosen,
+            "reason": self.reason,
         }
 
 
@@ -80,6 +91,7 @@ class Configured:
 
     surface_size: tuple[float, float] | None = None
     grab: bool = False
+    backend: str | None = None
 
 
 # ----------------------------------------------------------------- config
@@ -96,7 +108,7 @@ def load_configured(config: Path | None) -> tuple[dict[str, Configured], dict[st
     by_id: dict[str, Configured] = {}
     for dev in load_options(config).devices:
         spec = parse_spec(dev.spec)
-        value = Configured(dev.surface_size, dev.grab)
+        value = Configured(dev.surface_size, dev.grab, dev.backend or spec.backend)
         if spec.kind in ("hidraw", "evdev"):
             # /dev/input/by-id/... names the same node discovery lists as eventN
             by_path[os.path.realpath(spec.target)] = value
@@ -150,7 +162,16 @@ def _node_problem(info: DeviceInfo) -> Finding | None:
 
 def _finding(info: DeviceInfo, problem: str | None, detail: str, fix: str = "") -> Finding:
     return Finding(
-        info.path, info.backend, info.vid_pid, info.name, info.kind, problem, detail, fix
+        info.path,
+        info.backend,
+        info.vid_pid,
+        info.name,
+        info.kind,
+        problem,
+        detail,
+        fix,
+        chosen=info.chosen is not False,
+        reason=info.reason or "",
     )
 
 
@@ -310,11 +331,13 @@ def check(info: DeviceInfo, conf: Configured, config: Path) -> Finding:
 
 def diagnose(config: Path) -> list[Finding]:
     """Every candidate device with its finding, in discovery order."""
-    from stiction.drivers.cli import discover_all
+    from stiction.drivers.discovery import discover_all
 
     by_path, by_id = load_configured(config)
-    out = []
-    for info in discover_all():
-        conf = by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid) or Configured()
-        out.append(check(info, conf, config))
-    return out
+
+    def configured(info: DeviceInfo) -> Configured:
+        return by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid) or Configured()
+
+    # the backend the config asks for a VID:PID overrides discovery's rule
+    found = discover_all(prefer=lambda info: by_id.get(info.vid_pid, Configured()).backend)
+    return [check(info, configured(info), config) for info in found]
