@@ -241,7 +241,8 @@ def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> Sa
     usable = [info for info in nodes if info.problem is None]
     if usable:
         info = usable[0]
-        log.info("device_backend spec=%s node=%s reason=%s", spec.target, info.path, info.reason)
+        why = f"asked for {backend}" if backend else info.reason
+        log.info("device_backend spec=%s node=%s reason=%s", spec.target, info.path, why)
         return open_source(Spec(info.backend, info.path), cfg, realtime, loop)
     what = f"id {spec.target}" if spec.kind == "vidpid" else f"named like {spec.target!r}"
     through = f" through {backend}" if backend else ""

@@ -74,13 +74,17 @@ def discover_all(prefer: Callable[[DeviceInfo], str | None] | None = None) -> li
 
 def annotate(info: DeviceInfo, sysfs: Path = SYSFS_CLASS) -> DeviceInfo:
     """`info` with its HID device and whether its backend knows the size."""
+    where: str | None = None
     if info.backend == "evdev":
-        sized = evdev_sized(info.path)
+        where = evdev_size(info.path)
     elif info.backend == "hidraw":
-        sized = hidraw_sized(info)
-    else:
-        sized = None
-    return dataclasses.replace(info, hid_device=hid_device_of(info, sysfs), sized=sized)
+        where = hidraw_size(info)
+    return dataclasses.replace(
+        info,
+        hid_device=hid_device_of(info, sysfs),
+        sized=None if where is None else bool(where),
+        size_from=where or None,
+    )
 
 
 def hid_device_of(info: DeviceInfo, sysfs: Path = SYSFS_CLASS) -> str | None:
@@ -130,27 +134,24 @@ def _has_resolution(desc: DeviceDescription) -> bool:
     return ax is not None and ay is not None and ax.resolution > 0 and ay.resolution > 0
 
 
-def evdev_sized(path: str) -> bool | None:
-    where = evdev_size(path)
-    return None if where is None else bool(where)
-
-
-def hidraw_sized(info: DeviceInfo) -> bool | None:
-    """Whether the HID path knows the size: the descriptor maps without one given,
-    or a vendor initialisation reports it when the node is opened."""
+def hidraw_size(info: DeviceInfo) -> str | None:
+    """Where the HID path's size comes from: "descriptor" (the descriptor, or the
+    device table, maps without a size given), "vendor-init" (reported when the
+    node is opened), "" (nowhere) or None when that cannot be told."""
     if info.kind in ("other", "unknown"):
         return None
-    if info.problem is None:
-        return True  # discovery built the report mapping: the size is known
-    import hidraw
-
-    from stiction.drivers.hid.descriptor import parse_descriptor
     from stiction.drivers.hid.devices import lookup
-    from stiction.drivers.hid.stream import ReportStream
 
     entry = lookup(info.vid, info.pid)
     if entry is not None and entry.init == "huion-string-descriptor":
-        return True
+        return "vendor-init"
+    if info.problem is None:
+        return "descriptor"  # discovery built the report mapping: the size is known
+    import hidraw
+
+    from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.drivers.hid.stream import ReportStream
+
     dev = hidraw.device()
     try:
         dev.open_path(info.path.encode())
@@ -166,12 +167,12 @@ def hidraw_sized(info: DeviceInfo) -> bool | None:
     except StictionError:
         pass
     else:
-        return True
+        return "descriptor"
     try:
         ReportStream(desc, info.name, (0.1, 0.1), entry)  # maps with a size: it lacks one
     except StictionError:
         return None
-    return False
+    return ""
 
 
 def _usable(info: DeviceInfo) -> bool:
@@ -188,11 +189,16 @@ def _decide(hid: list[DeviceInfo], ev: list[DeviceInfo], wish: str | None) -> tu
     if wish in ("hidraw", "evdev"):
         return wish, f"the config asks for backend = {wish!r}"
     if all(i.sized for i in ev):
-        return "evdev", "the kernel driver describes it with a size (evdev resolution)"
-    if any(i.sized for i in hid):
-        lacking = "reports no resolution" if any(i.sized is False for i in ev) else "unreadable"
-        return "hidraw", f"its evdev node {lacking}, the HID path has the size"
-    return "evdev", "neither path has a size (configure surface_size); evdev by default"
+        if all(i.size_from == "kernel" for i in ev):
+            return "evdev", "the kernel driver knows it: its evdev node reports a resolution"
+        return "evdev", "its evdev node has a size (stiction's evdev size table)"
+    sized = [i for i in hid if i.sized]
+    if sized:
+        lacking = "has no size" if any(i.sized is False for i in ev) else "cannot be read"
+        vendor = sized[0].size_from == "vendor-init"
+        where = "vendor initialisation" if vendor else "descriptor (or device table)"
+        return "hidraw", f"its evdev node {lacking}; the HID {where} gives the size"
+    return "evdev", "neither node has a size (configure surface_size); evdev by default"
 
 
 def choose(
