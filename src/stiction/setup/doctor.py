@@ -18,8 +18,12 @@ failed rather than by parsing messages:
    would receive no events at all, grab or not. The doctor's own grab lasts
    only as long as the open.
 
-Sizes and grabs configured in the daemon's config file are applied as the
-daemon would, so a device the user has already fixed reports "ok".
+Sizes, grabs and backends configured in the daemon's config file are
+applied as the daemon would, so a device the user has already fixed reports
+"ok". Each finding says whether the daemon reads its device through this
+node (stiction.drivers.discovery pairs a tablet's hidraw and evdev nodes and
+picks one); a problem on the node not chosen is reported but does not make
+the device unusable.
 """
 
 from __future__ import annotations
