@@ -191,6 +191,12 @@ def test_neither_sized_falls_back_to_evdev_and_says_to_configure() -> None:
     assert "configure surface_size" in str(out[1].reason)
 
 
+def test_nodes_that_cannot_be_opened_fall_back_to_evdev_and_say_why() -> None:
+    out = choose([_node("/dev/hidraw1", "hidraw", None), _node("/dev/input/event1", "evdev", None)])
+    assert [i.chosen for i in out] == [False, True]
+    assert "could not be opened" in str(out[1].reason)
+
+
 def test_one_unsized_event_node_of_a_device_leaves_it_to_hidraw() -> None:
     nodes = [
         _node("/dev/hidraw1", "hidraw", True),

@@ -198,6 +198,8 @@ def _decide(hid: list[DeviceInfo], ev: list[DeviceInfo], wish: str | None) -> tu
         vendor = sized[0].size_from == "vendor-init"
         where = "vendor initialisation" if vendor else "descriptor (or device table)"
         return "hidraw", f"its evdev node {lacking}; the HID {where} gives the size"
+    if any(i.sized is None for i in hid + ev):
+        return "evdev", "the nodes could not be opened to tell their sizes; evdev by default"
     return "evdev", "neither node has a size (configure surface_size); evdev by default"
 
 
