@@ -114,9 +114,11 @@ def test_the_daemon_with_no_device_reads_the_tablet_through_evdev(
         (True, f"hidraw:{SPEC}", None),  # asked for: hidraw, opened by VID:PID directly
         (False, SPEC, "/dev/hidraw5"),  # the rule
         (False, f"evdev:{SPEC}", "/dev/input/event5"),  # asked for, against the rule
+        (True, "Test Tablet", "/dev/input/event5"),  # a name: the rule
+        (True, "hidraw:name:Test Tablet", "/dev/hidraw5"),  # a name, asked for
     ],
 )
-def test_a_vid_pid_device_follows_the_rule_or_the_backend_asked_for(
+def test_a_vid_pid_or_named_device_follows_the_rule_or_the_backend_asked_for(
     tmp_path: Path,
     hid_data: Path,
     evdev_data: Path,
@@ -126,10 +128,11 @@ def test_a_vid_pid_device_follows_the_rule_or_the_backend_asked_for(
 ) -> None:
     mock = _tablet(tmp_path / "mock", hid_data, evdev_data, resolution)
     log = _stictiond(mock, tmp_path, "-v", "--device", spec)
+    target = "Test Tablet" if "Test Tablet" in spec else SPEC
     if node is None:
         assert "device_backend" not in log and "devices=hidraw-hidraw5" in log, log
     else:
-        assert f"device_backend spec={SPEC} node={node} " in log, log
+        assert f"device_backend spec={target} node={node} " in log, log
     if spec.startswith("evdev:"):  # honoured: and so it meets the node's missing size
         assert "reason=asked for evdev" in log
         assert "device_absent spec=evdev:1209:0001" in log and "no resolution" in log, log

@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stiction.daemon.mapping import MappingConfig
 from stiction.daemon.stats import RateMeter
@@ -33,6 +33,9 @@ from stiction.daemon.wake import Waker
 from stiction.drivers.sample import PenSample
 from stiction.drivers.source import SampleSource
 from stiction.errors import DeviceError, StictionError
+
+if TYPE_CHECKING:
+    from stiction.drivers.info import DeviceInfo
 
 log = logging.getLogger("stiction.daemon.devices")
 
@@ -195,7 +198,7 @@ def backend_problem(spec: Spec, backend: str | None) -> str | None:
     return None
 
 
-def _nodes_for(spec: Spec, backend: str | None) -> list[Any]:
+def _nodes_for(spec: Spec, backend: str | None) -> list[DeviceInfo]:
     """The discovered nodes that would read a VID:PID or name spec, best first."""
     from stiction.drivers.discovery import discover_all, select
 
