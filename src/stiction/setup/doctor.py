@@ -101,15 +101,20 @@ class Configured:
 # ----------------------------------------------------------------- config
 
 
-def load_configured(config: Path | None) -> tuple[dict[str, Configured], dict[str, Configured]]:
-    """Per-path and per-vid:pid settings from the daemon config (empty without one)."""
+Settings = dict[str, Configured]
+
+
+def load_configured(config: Path | None) -> tuple[Settings, Settings, Settings]:
+    """Per-path, per-vid:pid and per-name settings from the daemon config (empty
+    without one); names are lower case, matched as the daemon does (contained)."""
     if config is None or not config.exists():
-        return {}, {}
+        return {}, {}, {}
     from stiction.daemon.config import load_options
     from stiction.daemon.devices import parse_spec
 
     by_path: dict[str, Configured] = {}
     by_id: dict[str, Configured] = {}
+    by_name: dict[str, Configured] = {}
     for dev in load_options(config).devices:
         spec = parse_spec(dev.spec)
         value = Configured(dev.surface_size, dev.grab, dev.backend or spec.backend)
@@ -118,7 +123,9 @@ def load_configured(config: Path | None) -> tuple[dict[str, Configured], dict[st
             by_path[os.path.realpath(spec.target)] = value
         elif spec.kind == "vidpid":
             by_id[spec.target] = value
-    return by_path, by_id
+        elif spec.kind == "name":
+            by_name[spec.target.lower()] = value
+    return by_path, by_id, by_name
 
 
 # ------------------------------------------------------------------ probes
@@ -337,11 +344,17 @@ def diagnose(config: Path) -> list[Finding]:
     """Every candidate device with its finding, in discovery order."""
     from stiction.drivers.discovery import discover_all
 
-    by_path, by_id = load_configured(config)
+    by_path, by_id, by_name = load_configured(config)
 
     def configured(info: DeviceInfo) -> Configured:
-        return by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid) or Configured()
+        named = [v for k, v in by_name.items() if k in info.name.lower()]
+        found = by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid)
+        return found or (named[0] if named else Configured())
 
-    # the backend the config asks for a VID:PID overrides discovery's rule
-    found = discover_all(prefer=lambda info: by_id.get(info.vid_pid, Configured()).backend)
+    def by_device(info: DeviceInfo) -> str | None:
+        """The backend the config asks for a VID:PID or a name (a path is its own)."""
+        named = [v for k, v in by_name.items() if k in info.name.lower()]
+        return (by_id.get(info.vid_pid) or (named[0] if named else Configured())).backend
+
+    found = discover_all(prefer=by_device)
     return [check(info, configured(info), config) for info in found]
