@@ -235,3 +235,17 @@ def test_select_matches_a_device_by_any_of_its_nodes() -> None:
     by_name = select(nodes, lambda i: i.name == "Tablet")
     assert [i.path for i in by_name] == ["/dev/input/event1"]
     assert [i.path for i in select(nodes, lambda i: True, "hidraw")] == ["/dev/hidraw1"]
+
+
+def test_a_node_whose_probe_crashes_is_listed_unpaired(monkeypatch: pytest.MonkeyPatch) -> None:
+    from stiction.drivers import discovery
+
+    odd = DeviceInfo("/dev/input/event3", "evdev", 1, 2, "odd", "pen")
+    monkeypatch.setattr(discovery, "discover_nodes", lambda: [odd])
+
+    def crash(info: DeviceInfo, sysfs: Path = discovery.SYSFS_CLASS) -> DeviceInfo:
+        raise ZeroDivisionError("a bug")
+
+    monkeypatch.setattr(discovery, "annotate", crash)
+    (out,) = discovery.discover_all()
+    assert (out.path, out.hid_device, out.sized, out.chosen) == (odd.path, None, None, True)

@@ -68,8 +68,15 @@ def discover_all(prefer: Callable[[DeviceInfo], str | None] | None = None) -> li
 
     `prefer` names the backend the user asked for a node's device (None: the rule).
     """
-    nodes = [annotate(info) for info in discover_nodes()]
-    return choose(nodes, prefer)
+    return choose([_annotated(info) for info in discover_nodes()], prefer)
+
+
+def _annotated(info: DeviceInfo) -> DeviceInfo:
+    try:
+        return annotate(info)
+    except Exception as exc:  # one odd node must not hide the others: it just stays unpaired
+        log.warning("probe_failed path=%s error=%s: %s", info.path, type(exc).__name__, exc)
+        return info
 
 
 def annotate(info: DeviceInfo, sysfs: Path = SYSFS_CLASS) -> DeviceInfo:
