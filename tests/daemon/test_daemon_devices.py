@@ -29,8 +29,13 @@ from stiction.errors import StictionError
         ("/dev/hidraw3", Spec("hidraw", "/dev/hidraw3")),
         ("/dev/input/event7", Spec("evdev", "/dev/input/event7")),
         ("256C:006D", Spec("vidpid", "256c:006d")),
-        ("hid:256c:006d", Spec("hidraw", "256c:006d")),
+        ("hid:256c:006d", Spec("vidpid", "256c:006d", backend="hidraw")),
+        ("hidraw:256C:006D", Spec("vidpid", "256c:006d", backend="hidraw")),
+        ("hidraw:/dev/hidraw3", Spec("hidraw", "/dev/hidraw3")),
         ("evdev:/dev/input/event2", Spec("evdev", "/dev/input/event2")),
+        ("evdev:056a:0374", Spec("vidpid", "056a:0374", backend="evdev")),
+        ("evdev:name:Wacom Intuos", Spec("name", "Wacom Intuos", backend="evdev")),
+        ("hidraw:name:Huion", Spec("name", "Huion", backend="hidraw")),
         ("Wacom Intuos", Spec("name", "Wacom Intuos")),
         ("name:huion", Spec("name", "huion")),
     ],
@@ -119,7 +124,15 @@ def test_stats_leave_out_a_rate_not_measured_yet(endpoints: tuple[str, str]) -> 
 
 @pytest.mark.parametrize(
     "text",
-    ["/dev/input/event999", "/dev/hidraw99", "256c:006d", "hid:256c:006d", "Wacom Intuos"],
+    [
+        "/dev/input/event999",
+        "/dev/hidraw99",
+        "256c:006d",
+        "hid:256c:006d",
+        "evdev:256c:006d",
+        "hidraw:name:Huion",
+        "Wacom Intuos",
+    ],
 )
 def test_specs_that_may_appear_later_are_not_problems(text: str) -> None:
     from stiction.daemon.devices import spec_problem
@@ -133,6 +146,8 @@ def test_specs_that_may_appear_later_are_not_problems(text: str) -> None:
         ("/etc/passwd", "not a character device"),
         ("zz:12", "malformed VID:PID"),
         ("hid:zz:0001", "malformed VID:PID"),
+        ("hidraw:zz:0001", "malformed VID:PID"),
+        ("evdev:zz:0001", "not a path, VID:PID or name:TEXT after evdev:"),
         ("/tmp/no/such/device", "does not exist"),
         ("/dev/hidrawx/../nope", "does not exist"),
     ],
@@ -173,3 +188,38 @@ def test_config_device_that_can_never_be_one_names_its_key(tmp_path: Path) -> No
     cfg.write_text('[[devices]]\nspec = "zz:12"\n')
     with pytest.raises(ConfigError, match=r"c\.toml:2: devices\[0\]\.spec: malformed VID:PID"):
         load_options(cfg)
+
+
+@pytest.mark.parametrize(
+    ("spec", "backend", "words"),
+    [
+        ("256c:006d", '"usb"', "devices[0].backend: must be 'hidraw' or 'evdev', got 'usb'"),
+        ("256c:006d", "3", "devices[0].backend: must be 'hidraw' or 'evdev', got 3"),
+        ("/dev/hidraw3", '"evdev"', "devices[0].backend: /dev/hidraw3 is read through hidraw"),
+        ("synthetic:demo", '"evdev"', "devices[0].backend: a synthetic: spec has no backend"),
+        ("evdev:256c:006d", '"hidraw"', "the spec asks for evdev and the backend key for hidraw"),
+    ],
+)
+def test_config_backend_that_cannot_apply_names_its_key(
+    tmp_path: Path, spec: str, backend: str, words: str
+) -> None:
+    from stiction.daemon.config import ConfigError, load_options
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f'[[devices]]\nspec = "{spec}"\nbackend = {backend}\n')
+    with pytest.raises(ConfigError) as err:
+        load_options(cfg)
+    assert words in str(err.value)
+    assert str(err.value).startswith(f"{cfg}:3: ")
+
+
+@pytest.mark.parametrize(
+    ("spec", "backend"),
+    [("256c:006d", "evdev"), ("name:Huion", "hidraw"), ("hidraw:256c:006d", "hidraw")],
+)
+def test_config_backend_is_kept(tmp_path: Path, spec: str, backend: str) -> None:
+    from stiction.daemon.config import load_options
+
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f'[[devices]]\nspec = "{spec}"\nbackend = "{backend}"\n')
+    assert load_options(cfg).devices[0].backend == backend

@@ -23,6 +23,7 @@ def test_the_config_example_in_daemon_md_loads(tmp_path: Path) -> None:
     assert opts.rate == 100.0 and opts.hwm == 1000
     assert opts.scene == tmp_path / "scenes" / "lab.toml"
     assert opts.devices[0].spec == "/dev/hidraw3"
+    assert (opts.devices[1].spec, opts.devices[1].backend) == ("256c:006d", "evdev")
     assert opts.curve.secret_key == tmp_path / "keys" / "stictiond.key_secret"
     assert opts.params["k"] == 0.1
 

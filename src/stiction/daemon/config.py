@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from stiction.argtypes import check_endpoint
-from stiction.daemon.devices import DeviceConfig, parse_spec, spec_problem
+from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, spec_problem
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.security import CurveConfig
 from stiction.daemon.service import Options
@@ -53,6 +53,7 @@ _DEVICE_KEYS = {
     "screen_area",
     "gain",
     "grab",
+    "backend",
 }
 
 
@@ -201,11 +202,16 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
     if not isinstance(t["spec"], str):
         r.fail((*where, "spec"), f"must be a string, got {t['spec']!r}")
     try:
-        problem = spec_problem(parse_spec(t["spec"]))
+        spec = parse_spec(t["spec"])
+        problem = spec_problem(spec)
     except StictionError as exc:
         r.fail((*where, "spec"), str(exc))
     if problem is not None:
         r.fail((*where, "spec"), problem)
+    backend = t.get("backend")
+    problem = backend_problem(spec, backend)
+    if problem is not None:
+        r.fail((*where, "backend"), problem)
     mode = t.get("mapping", "area")
     if mode == "absolute":
         mode = "area"
@@ -250,4 +256,5 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
         mapping_given=mapping_given,
         surface_size=size,
         grab=grab,
+        backend=backend,
     )

@@ -25,7 +25,7 @@ import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stiction.daemon.mapping import MappingConfig
 from stiction.daemon.stats import RateMeter
@@ -34,7 +34,12 @@ from stiction.drivers.sample import PenSample
 from stiction.drivers.source import SampleSource
 from stiction.errors import DeviceError, StictionError
 
+if TYPE_CHECKING:
+    from stiction.drivers.info import DeviceInfo
+
 log = logging.getLogger("stiction.daemon.devices")
+
+_HEX = frozenset("0123456789abcdefABCDEF")
 
 STEP_RESET_S = 1.0
 """A device clock that jumps by more than this against the loop clock is re-learnt."""
@@ -51,15 +56,25 @@ class DeviceConfig:
     mapping_given: bool = False
     surface_size: tuple[float, float] | None = None
     grab: bool = False
+    backend: str | None = None
+    """"hidraw" or "evdev" to read a VID:PID or named device through that
+    backend; None follows stiction.drivers.discovery's rule."""
+
+
+BACKENDS = ("hidraw", "evdev")
 
 
 @dataclass(frozen=True, slots=True)
 class Spec:
-    """A parsed device spec: `kind` is synthetic, replay, hidraw, evdev, vidpid or name."""
+    """A parsed device spec: `kind` is synthetic, replay, hidraw, evdev, vidpid or name.
+
+    `backend` is the backend a ``hidraw:``/``hid:`` or ``evdev:`` prefix asks
+    for a VID:PID or a name (a path's kind already is its backend)."""
 
     kind: str
     target: str
     extra: str | None = None
+    backend: str | None = None
 
     @property
     def finite(self) -> bool:
@@ -67,10 +82,27 @@ class Spec:
         return self.kind in ("synthetic", "replay")
 
 
+def _is_vidpid(text: str) -> bool:
+    head, sep, rest = text.partition(":")
+    return bool(sep) and len(head) == 4 and len(rest) == 4 and set(head + rest) <= _HEX
+
+
+def _with_backend(backend: str, rest: str) -> Spec:
+    """What follows a ``hidraw:``/``hid:`` or ``evdev:`` prefix: a path, a VID:PID
+    or ``name:TEXT``; anything else is kept for spec_problem to refuse."""
+    if _is_vidpid(rest):
+        return Spec("vidpid", rest.lower(), backend=backend)
+    head, sep, name = rest.partition(":")
+    if sep and head == "name":
+        return Spec("name", name, backend=backend)
+    return Spec(backend, rest)
+
+
 def parse_spec(text: str) -> Spec:
     """``synthetic:NAME``, ``replay:PATH[,EVENTS]``, ``/dev/hidrawN``,
-    ``/dev/input/eventN``, ``hid:PATH|VID:PID``, ``evdev:PATH``, ``VID:PID``,
-    ``name:TEXT`` or any other text as a name to match."""
+    ``/dev/input/eventN``, ``VID:PID``, ``name:TEXT`` or any other text as a
+    name to match; ``hidraw:`` (or ``hid:``) and ``evdev:`` before a path, a
+    VID:PID or ``name:TEXT`` pick the backend."""
     t = text.strip()
     if not t:
         raise StictionError("empty device spec")
@@ -82,26 +114,19 @@ def parse_spec(text: str) -> Spec:
             raise StictionError("replay: needs a recording path (replay:PATH)")
         path, _, events = rest.partition(",")
         return Spec("replay", path, events or None)
-    if sep and head == "hid":
-        return Spec("hidraw", rest)
+    if sep and head in ("hid", "hidraw"):
+        return _with_backend("hidraw", rest)
     if sep and head == "evdev":
-        return Spec("evdev", rest)
+        return _with_backend("evdev", rest)
     if sep and head == "name":
         return Spec("name", rest)
     if t.startswith("/dev/hidraw"):
         return Spec("hidraw", t)
     if t.startswith("/dev/input/"):
         return Spec("evdev", t)
-    if (
-        len(head) == 4
-        and len(rest) == 4
-        and all(c in "0123456789abcdefABCDEF" for c in head + rest)
-    ):
+    if _is_vidpid(t):
         return Spec("vidpid", t.lower())
     return Spec("name", t)
-
-
-_HEX = frozenset("0123456789abcdefABCDEF")
 
 
 def _vidpid_problem(text: str) -> str | None:
@@ -138,7 +163,9 @@ def spec_problem(spec: Spec) -> str | None:
     t = spec.target
     if spec.kind in ("hidraw", "evdev"):
         if not t.startswith("/"):
-            return _vidpid_problem(t) if spec.kind == "hidraw" else f"not a path: {t!r}"
+            if spec.kind == "hidraw":
+                return _vidpid_problem(t)
+            return f"not a path, VID:PID or name:TEXT after evdev: {t!r}"
         node = os.path.basename(t)
         may_appear = t.startswith("/dev/input/") or (
             os.path.dirname(t) == "/dev" and node.startswith("hidraw")
@@ -151,6 +178,34 @@ def spec_problem(spec: Spec) -> str | None:
         if sep and head and rest and head.isalnum() and rest.isalnum() and len(head) <= 4:
             return _vidpid_problem(t)
     return None
+
+
+def backend_problem(spec: Spec, backend: str | None) -> str | None:
+    """Why `backend` (a config's ``backend`` key) cannot apply to `spec`, or None."""
+    if backend is None:
+        return None
+    if backend not in BACKENDS:
+        return f"must be 'hidraw' or 'evdev', got {backend!r}"
+    if spec.kind in ("synthetic", "replay"):
+        return f"a {spec.kind}: spec has no backend to choose; remove the backend key"
+    if spec.kind in BACKENDS and spec.kind != backend:
+        return (
+            f"{spec.target} is read through {spec.kind}; name the device by VID:PID or "
+            f"name for backend = {backend!r}"
+        )
+    if spec.backend is not None and spec.backend != backend:
+        return f"the spec asks for {spec.backend} and the backend key for {backend}"
+    return None
+
+
+def _nodes_for(spec: Spec, backend: str | None) -> list[DeviceInfo]:
+    """The discovered nodes that would read a VID:PID or name spec, best first."""
+    from stiction.drivers.discovery import discover_all, select
+
+    if spec.kind == "vidpid":
+        return select(discover_all(), lambda i: i.vid_pid == spec.target, backend)
+    want = spec.target.lower()
+    return select(discover_all(), lambda i: want in i.name.lower(), backend)
 
 
 def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> SampleSource:
@@ -172,24 +227,31 @@ def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> Sa
 
         size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
         return evdev_replay(path, spec.extra, realtime=realtime, size_mm=size_mm)
-    if spec.kind in ("hidraw", "vidpid"):
+    backend = cfg.backend or spec.backend
+    if spec.kind == "hidraw" or (spec.kind == "vidpid" and backend == "hidraw"):
         from stiction.drivers import hid
 
+        # open_hidraw picks the pen interface of a VID:PID itself
         return hid.open_hidraw(spec.target, size_m=size)
     if spec.kind == "evdev":
         from stiction.drivers import evdev
 
         size_mm = (size[0] * 1e3, size[1] * 1e3) if size else None
         return evdev.open_device(spec.target, grab=cfg.grab, size_mm=size_mm)
-    # A name: the first usable discovered device whose name contains it.
-    from stiction.drivers.cli import discover_all
-
-    want = spec.target.lower()
-    for info in discover_all():
-        if want in info.name.lower() and info.problem is None:
-            kind = "hidraw" if info.backend == "hidraw" else "evdev"
-            return open_source(Spec(kind, info.path), cfg, realtime, loop)
-    raise DeviceError(f"no device named like {spec.target!r} is present")
+    # A VID:PID or a name: the node discovery picks for that device (or the
+    # backend asked for), the first that opens.
+    nodes = _nodes_for(spec, backend)
+    usable = [info for info in nodes if info.problem is None]
+    if usable:
+        info = usable[0]
+        why = f"asked for {backend}" if backend else info.reason
+        log.info("device_backend spec=%s node=%s reason=%s", spec.target, info.path, why)
+        return open_source(Spec(info.backend, info.path), cfg, realtime, loop)
+    what = f"id {spec.target}" if spec.kind == "vidpid" else f"named like {spec.target!r}"
+    through = f" through {backend}" if backend else ""
+    if nodes:
+        raise DeviceError(f"the device with {what}{through} cannot be read: {nodes[0].problem}")
+    raise DeviceError(f"no device with {what}{through} is present")
 
 
 class ClockMap:

@@ -41,7 +41,9 @@ def build_parser() -> argparse.ArgumentParser:
         default=[],
         metavar="SPEC",
         help="device: /dev/hidrawN, /dev/input/eventN, VID:PID, a name, replay:PATH, "
-        "synthetic:NAME (repeatable; default: every tablet found, else synthetic:demo)",
+        "synthetic:NAME; hidraw:VID:PID or evdev:VID:PID picks the backend (repeatable; "
+        "default: every tablet found, each through the backend docs/devices.md says, "
+        "else synthetic:demo)",
     )
     p.add_argument("--scene", type=Path, metavar="FILE", help="scene TOML (default: built-in)")
     p.add_argument("--pub", type=endpoint, metavar="ENDPOINT", help="publisher endpoint")

@@ -59,6 +59,7 @@ from stiction.daemon.publisher import Publisher
 from stiction.daemon.security import CurveConfig, Guard
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
+from stiction.drivers.info import DeviceInfo
 from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
@@ -808,21 +809,29 @@ class Daemon:
         }
 
 
+def _discover_nodes() -> list[DeviceInfo]:
+    """The usable tablets, touchpads and touchscreens present now, one node each.
+
+    A tablet shows up both as hidraw and as evdev nodes; discovery picks the
+    one to read it through (stiction.drivers.discovery has the rule)."""
+    from stiction.drivers.discovery import discover_all
+
+    return [i for i in discover_all() if i.chosen and i.problem is None]
+
+
 def _discover_specs() -> list[str]:
     """Paths of the usable tablets, touchpads and touchscreens present now."""
-    from stiction.drivers.cli import discover_all
-
-    usable = [i for i in discover_all() if i.problem is None and i.kind != "other"]
-    # A tablet shows up both as hidraw and as evdev nodes; read it once, through hidraw.
-    on_hidraw = {(i.vid, i.pid) for i in usable if i.backend == "hidraw"}
-    return [i.path for i in usable if i.backend == "hidraw" or (i.vid, i.pid) not in on_hidraw]
+    return [i.path for i in _discover_nodes()]
 
 
 def _auto_devices() -> list[DeviceConfig]:
     """No devices named: every usable tablet/touchpad found, else the synthetic pen
     (tablets plugged in later are picked up by the hot-plug watcher)."""
     try:
-        found = _discover_specs()
+        nodes = _discover_nodes()
+        for i in nodes:
+            log.info("device_found node=%s backend=%s reason=%s", i.path, i.backend, i.reason)
+        found = [i.path for i in nodes]
     except Exception:  # discovery problems must not stop the no-argument start
         log.exception("discovery_failed")
         found = []

@@ -1,35 +1,15 @@
-"""`stiction devices`: every tablet and touchpad this machine shows, from every backend."""
+"""`stiction devices`: every tablet and touchpad this machine shows, from every backend,
+and which of a device's nodes stiction reads (stiction.drivers.discovery has the rule)."""
 
 from __future__ import annotations
 
 import argparse
-import importlib
 import json
-import logging
 import sys
 from dataclasses import asdict
 from typing import Any
 
-from stiction.drivers.info import DeviceInfo
-
-# Each backend module offers ``discover() -> list[DeviceInfo]``.
-BACKENDS = ("stiction.drivers.hid", "stiction.drivers.evdev")
-
-
-def discover_all() -> list[DeviceInfo]:
-    found: list[DeviceInfo] = []
-    for name in BACKENDS:
-        module = importlib.import_module(name)
-        discover = getattr(module, "discover", None)
-        if discover is None:
-            continue
-        try:
-            found.extend(discover())
-        except Exception as exc:  # a backend that fails must not hide the other's devices
-            logging.getLogger(__name__).warning(
-                "discovery_failed backend=%s error=%s: %s", name, type(exc).__name__, exc
-            )
-    return found
+from stiction.drivers.discovery import discover_all
 
 
 def _devices(args: argparse.Namespace) -> int:
@@ -43,7 +23,11 @@ def _devices(args: argparse.Namespace) -> int:
         return 0
     for info in found:
         status = "ok" if info.problem is None else info.problem
-        print(f"{info.path}\t{info.vid_pid}\t{info.kind}\t{info.backend}\t{info.name}\t{status}")
+        use = "chosen" if info.chosen else "not chosen"
+        print(
+            f"{info.path}\t{info.vid_pid}\t{info.kind}\t{info.backend}\t{info.name}\t{status}"
+            f"\t{use}: {info.reason}"
+        )
     return 0
 
 

@@ -103,7 +103,9 @@ def _doctor(args: argparse.Namespace) -> int:
     config: Path = args.config or service.config_path()
     findings = doctor.diagnose(config)
     rules = _rules_status(builtin_rules())
-    usable = bool(findings) and all(f.ok for f in findings)
+    # a problem on a node stictiond does not read (the hidraw twin of an evdev
+    # tablet) is reported but does not make the device unusable
+    usable = any(f.chosen for f in findings) and not any(f.blocks for f in findings)
     if args.json:
         print(
             json.dumps(
@@ -126,14 +128,16 @@ def _doctor(args: argparse.Namespace) -> int:
     for f in findings:
         head = f"{f.path}  {f.vid_pid}  {f.kind:<11} {f.backend:<6}  {f.name}"
         print(head)
+        print(f"    {'chosen' if f.chosen else 'not chosen'}: {f.reason}")
         if f.ok:
             print(f"    ok: {f.detail}")
         else:
-            print(f"    PROBLEM ({f.problem}): {f.detail}")
+            print(f"    {'PROBLEM' if f.chosen else 'problem'} ({f.problem}): {f.detail}")
             print(f"    fix: {f.fix}")
-    bad = sum(not f.ok for f in findings)
+    used = [f for f in findings if f.chosen]
+    bad = sum(f.blocks for f in findings)
     print(
-        f"{len(findings) - bad} of {len(findings)} devices usable"
+        f"{len(used) - bad} of {len(used)} devices usable"
         + ("" if not bad else "; fix the problems above and run `stiction doctor` again")
     )
     return 0 if usable else 1

@@ -18,8 +18,12 @@ failed rather than by parsing messages:
    would receive no events at all, grab or not. The doctor's own grab lasts
    only as long as the open.
 
-Sizes and grabs configured in the daemon's config file are applied as the
-daemon would, so a device the user has already fixed reports "ok".
+Sizes, grabs and backends configured in the daemon's config file are
+applied as the daemon would, so a device the user has already fixed reports
+"ok". Each finding says whether the daemon reads its device through this
+node (stiction.drivers.discovery pairs a tablet's hidraw and evdev nodes and
+picks one); a problem on the node not chosen is reported but does not make
+the device unusable.
 """
 
 from __future__ import annotations
@@ -55,10 +59,19 @@ class Finding:
     problem: str | None = None
     detail: str = ""
     fix: str = ""
+    chosen: bool = True
+    reason: str = ""
+    """Whether stictiond reads the device through this node, and why (or what it
+    reads instead): a device has a hidraw and an evdev node, and only one is used."""
 
     @property
     def ok(self) -> bool:
         return self.problem is None
+
+    @property
+    def blocks(self) -> bool:
+        """A problem that stops the device being read (one on an unused node does not)."""
+        return self.chosen and not self.ok
 
     def as_json(self) -> dict[str, Any]:
         return {
@@ -71,6 +84,8 @@ class Finding:
             "problem": self.problem,
             "detail": self.detail,
             "fix": self.fix,
+            "chosen": self.chosen,
+            "reason": self.reason,
         }
 
 
@@ -80,29 +95,37 @@ class Configured:
 
     surface_size: tuple[float, float] | None = None
     grab: bool = False
+    backend: str | None = None
 
 
 # ----------------------------------------------------------------- config
 
 
-def load_configured(config: Path | None) -> tuple[dict[str, Configured], dict[str, Configured]]:
-    """Per-path and per-vid:pid settings from the daemon config (empty without one)."""
+Settings = dict[str, Configured]
+
+
+def load_configured(config: Path | None) -> tuple[Settings, Settings, Settings]:
+    """Per-path, per-vid:pid and per-name settings from the daemon config (empty
+    without one); names are lower case, matched as the daemon does (contained)."""
     if config is None or not config.exists():
-        return {}, {}
+        return {}, {}, {}
     from stiction.daemon.config import load_options
     from stiction.daemon.devices import parse_spec
 
     by_path: dict[str, Configured] = {}
     by_id: dict[str, Configured] = {}
+    by_name: dict[str, Configured] = {}
     for dev in load_options(config).devices:
         spec = parse_spec(dev.spec)
-        value = Configured(dev.surface_size, dev.grab)
+        value = Configured(dev.surface_size, dev.grab, dev.backend or spec.backend)
         if spec.kind in ("hidraw", "evdev"):
             # /dev/input/by-id/... names the same node discovery lists as eventN
             by_path[os.path.realpath(spec.target)] = value
         elif spec.kind == "vidpid":
             by_id[spec.target] = value
-    return by_path, by_id
+        elif spec.kind == "name":
+            by_name[spec.target.lower()] = value
+    return by_path, by_id, by_name
 
 
 # ------------------------------------------------------------------ probes
@@ -150,7 +173,16 @@ def _node_problem(info: DeviceInfo) -> Finding | None:
 
 def _finding(info: DeviceInfo, problem: str | None, detail: str, fix: str = "") -> Finding:
     return Finding(
-        info.path, info.backend, info.vid_pid, info.name, info.kind, problem, detail, fix
+        info.path,
+        info.backend,
+        info.vid_pid,
+        info.name,
+        info.kind,
+        problem,
+        detail,
+        fix,
+        chosen=info.chosen is not False,
+        reason=info.reason or "",
     )
 
 
@@ -310,11 +342,19 @@ def check(info: DeviceInfo, conf: Configured, config: Path) -> Finding:
 
 def diagnose(config: Path) -> list[Finding]:
     """Every candidate device with its finding, in discovery order."""
-    from stiction.drivers.cli import discover_all
+    from stiction.drivers.discovery import discover_all
 
-    by_path, by_id = load_configured(config)
-    out = []
-    for info in discover_all():
-        conf = by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid) or Configured()
-        out.append(check(info, conf, config))
-    return out
+    by_path, by_id, by_name = load_configured(config)
+
+    def configured(info: DeviceInfo) -> Configured:
+        named = [v for k, v in by_name.items() if k in info.name.lower()]
+        found = by_path.get(os.path.realpath(info.path)) or by_id.get(info.vid_pid)
+        return found or (named[0] if named else Configured())
+
+    def by_device(info: DeviceInfo) -> str | None:
+        """The backend the config asks for a VID:PID or a name (a path is its own)."""
+        named = [v for k, v in by_name.items() if k in info.name.lower()]
+        return (by_id.get(info.vid_pid) or (named[0] if named else Configured())).backend
+
+    found = discover_all(prefer=by_device)
+    return [check(info, configured(info), config) for info in found]
