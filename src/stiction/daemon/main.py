@@ -165,26 +165,42 @@ def main(argv: Sequence[str] | None = None) -> int:
     from stiction.daemon import logs
 
     logs.setup(args.log_format, args.verbose)
-    try:
-        from stiction.daemon.service import Daemon
+    # The handlers go in before the daemon opens: it logs "started" as it opens,
+    # and a Ctrl-C or SIGTERM that follows at once must stop it cleanly, not
+    # raise KeyboardInterrupt through an unfinished start.
+    daemon = None
+    asked: set[str] = set()
 
-        daemon = Daemon(options_from_args(args))
-        daemon.open()
-    except StictionError as exc:
-        print(f"stictiond: error: {exc}", file=sys.stderr)
-        return 2
-    previous = {
-        sig: signal.signal(sig, lambda *_: daemon.request_stop())
-        for sig in (signal.SIGTERM, signal.SIGINT)
-    }
-    previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, lambda *_: daemon.request_reload())
+    def stop(*_: object) -> None:
+        asked.add("stop")
+        if daemon is not None:
+            daemon.request_stop()
+
+    def reload(*_: object) -> None:
+        if daemon is not None:
+            daemon.request_reload()
+
+    previous = {sig: signal.signal(sig, stop) for sig in (signal.SIGTERM, signal.SIGINT)}
+    previous[signal.SIGHUP] = signal.signal(signal.SIGHUP, reload)
     try:
-        return daemon.run()
-    except StictionError as exc:
-        print(f"stictiond: error: {exc}", file=sys.stderr)
-        return 2
+        try:
+            from stiction.daemon.service import Daemon
+
+            daemon = Daemon(options_from_args(args))
+            daemon.open()
+        except StictionError as exc:
+            print(f"stictiond: error: {exc}", file=sys.stderr)
+            return 2
+        if "stop" in asked:  # asked to stop while it was starting
+            daemon.request_stop()
+        try:
+            return daemon.run()
+        except StictionError as exc:
+            print(f"stictiond: error: {exc}", file=sys.stderr)
+            return 2
+        finally:
+            daemon.close()
     finally:
-        daemon.close()
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 
