@@ -64,6 +64,24 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+SIZE_MM_FLAG = "--size-mm WxH (e.g. --size-mm 254x158.8)"
+"""How a command line that reads a device gives its size: in millimetres, the unit in the flag."""
+
+
+def size_mm(text: str) -> tuple[float, float]:
+    """`WxH`: an active area in millimetres, both finite and > 0, at most 10 m."""
+    w, sep, h = text.lower().partition("x")
+    try:
+        size = (float(w), float(h))
+    except ValueError:
+        size = (math.nan, math.nan)
+    if not sep or not all(math.isfinite(v) and 0 < v <= 10_000 for v in size):
+        raise argparse.ArgumentTypeError(
+            f"expected the active area as WIDTHxHEIGHT in millimetres, e.g. 254x158.8, got {text!r}"
+        )
+    return size
+
+
 def int_range(low: int, high: int) -> Callable[[str], int]:
     """A whole number in [low, high] (a priority, a port)."""
 

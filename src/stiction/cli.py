@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from stiction import __version__
-from stiction.errors import StictionError
+from stiction.errors import SizeUnknown, StictionError
 
 COMMAND_MODULES = (
     "stiction.sim.cli",
@@ -165,6 +165,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         return int(args.func(args) or 0)
     except StictionError as exc:
+        how = getattr(args, "size_how", None)
+        if isinstance(exc, SizeUnknown) and how:  # name this command's own flag
+            exc = exc.told(how)
         print(f"stiction: error: {exc}", file=sys.stderr)
         return 2
     except BrokenPipeError:

@@ -16,6 +16,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any, TextIO
 
+from stiction.argtypes import SIZE_MM_FLAG, size_mm
+
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     p = sub.add_parser(
@@ -42,13 +44,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--device", default=None, help="for an .npz: which device (default: the first)")
     p.add_argument(
         "--size-mm",
-        nargs=2,
-        type=float,
-        metavar=("W", "H"),
-        help="the active area, when the recording does not give it",
+        type=size_mm,
+        metavar="WxH",
+        help="the active area in mm, when the recording does not give it",
     )
     p.add_argument("--force", action="store_true", help="replace OUT if it exists")
-    p.set_defaults(func=_trace)
+    p.set_defaults(func=_trace, size_how=SIZE_MM_FLAG)
 
 
 Row = tuple[float, float, float, int, float | None]
@@ -67,7 +68,9 @@ def _rows_from_source(args: argparse.Namespace) -> Iterator[Row]:
     spec = parse_spec(spec_text)
     if spec.kind == "replay" and not Path(spec.target).exists():
         raise RecordingError(f"no such recording: {spec.target}")
-    source = open_source(spec, DeviceConfig(spec_text, surface_size=size), False, False)
+    source = open_source(
+        spec, DeviceConfig(spec_text, surface_size=size), False, False, size_how=SIZE_MM_FLAG
+    )
     want = args.contact
     try:
         for s in source.samples():

@@ -75,7 +75,7 @@ def test_relative_mapping_starts_each_contact_at_the_cursor() -> None:
 
 
 def test_unknown_size_needs_configuration() -> None:
-    with pytest.raises(MappingError, match="set surface_size"):
+    with pytest.raises(MappingError, match="set size_mm"):
         make_mapping(None, DISPLAY, MappingConfig(), "mystery")
 
 

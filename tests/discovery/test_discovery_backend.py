@@ -191,7 +191,7 @@ def test_neither_sized_falls_back_to_evdev_and_says_to_configure() -> None:
         [_node("/dev/hidraw1", "hidraw", False), _node("/dev/input/event1", "evdev", False)]
     )
     assert [i.chosen for i in out] == [False, True]
-    assert "configure surface_size" in str(out[1].reason)
+    assert "configure size_mm" in str(out[1].reason)
 
 
 def test_nodes_that_cannot_be_opened_fall_back_to_evdev_and_say_why() -> None:

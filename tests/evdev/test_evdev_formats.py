@@ -226,7 +226,7 @@ def test_decode_pair_and_null_metres(evdev_data: Path, capsys: pytest.CaptureFix
     assert len(rows) == 150
     c = rows[0]["contacts"][0]
     assert c["x_m"] is None and c["y_m"] is None and c["pressure"] is None
-    assert main(["evdev", "decode", str(desc), str(events), "--json", "--size", "100x60"]) == 0
+    assert main(["evdev", "decode", str(desc), str(events), "--json", "--size-mm", "100x60"]) == 0
     rows = [json.loads(x) for x in capsys.readouterr().out.splitlines()]
     assert rows[0]["contacts"][0]["x_m"] == pytest.approx((1972 - 1472) / (4256 / 100) / 1000)
 

@@ -286,7 +286,7 @@ def test_missing_size_names_the_device_and_the_fix(hid_data: Path) -> None:
         replay(path, realtime=False)
     msg = str(err.value)
     assert "HUION Huion Tablet (256c:006d" in msg
-    assert "devices.toml" in msg and "--size" in msg
+    assert "hid-devices.toml" in msg and "size_mm = [width, height]" in msg
     src = replay(path, realtime=False, size_m=(0.254, 0.15875))
     samples = list(src.samples())
     assert src.surface_size == (0.254, 0.15875)

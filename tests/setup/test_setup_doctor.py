@@ -194,7 +194,7 @@ def test_device_without_resolution_says_where_to_configure_its_size(
     config = machine["tmp"] / "config" / "stiction" / "stictiond.toml"
     assert str(config) in d["fix"]
     assert 'spec = "/dev/input/event6"' in d["fix"]
-    assert "surface_size" in d["fix"]
+    assert "size_mm = [width, height]" in d["fix"]
 
 
 def test_huion_without_usb_access_is_a_vendor_init_problem(machine: dict[str, Any]) -> None:
@@ -220,7 +220,7 @@ def test_configured_size_fixes_the_device_and_exit_status_is_zero(
     config = tmp_path / "config" / "stiction" / "stictiond.toml"
     assert str(config) in fix
     config.parent.mkdir(parents=True)
-    config.write_text('[[devices]]\nspec = "/dev/input/event6"\nsurface_size = [0.1, 0.06]\n')
+    config.write_text('[[devices]]\nspec = "/dev/input/event6"\nsize_mm = [100, 60]\n')
     after = _run_doctor(tmp_path, [nosize])
     assert after["report"]["devices"][0]["ok"] is True, after["report"]
     assert after["report"]["ok"] is True

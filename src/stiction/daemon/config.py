@@ -7,6 +7,7 @@ its scene can be moved together.
 
 from __future__ import annotations
 
+import logging
 import math
 import tomllib
 from collections.abc import Mapping
@@ -21,6 +22,8 @@ from stiction.daemon.service import Options
 from stiction.errors import StictionError
 from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
 from stiction.userfiles import read_regular_text
+
+log = logging.getLogger(__name__)
 
 
 class ConfigError(StictionError):
@@ -48,7 +51,9 @@ _DEVICE_KEYS = {
     "mapping",
     "aspect",
     "rotate",
-    "surface_size",
+    "size_mm",
+    "surface_area_mm",
+    "surface_size",  # the old metre-valued names, still read
     "surface_area",
     "screen_area",
     "gain",
@@ -224,20 +229,35 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
     if rotate not in ROTATIONS or isinstance(rotate, bool):
         r.fail((*where, "rotate"), f"must be 0, 90, 180 or 270, got {rotate!r}")
 
-    def rect(key: str) -> tuple[float, float, float, float] | None:
-        if key not in t:
-            return None
+    def one_of(new: str, old: str) -> tuple[str, float] | None:
+        """Which of a millimetre key and its old metre-valued name is given: (key, to metres)."""
+        if new in t and old in t:
+            r.fail((*where, old), f"give {new} (millimetres) or {old} (metres), not both")
+        if new in t:
+            return new, 1e-3
+        if old in t:
+            log.warning("config: %s is in metres and kept only for old files; write %s in "
+                        "millimetres", ".".join(map(str, (*where, old))), new)  # fmt: skip
+            return old, 1.0
+        return None
+
+    def rect(key: str, scale: float) -> tuple[float, float, float, float] | None:
         x, y, w, h = r.numbers(t[key], (*where, key), 4)
         if w <= 0 or h <= 0:
             r.fail((*where, key), "width and height must be positive")
-        return (x, y, w, h)
+        return (x * scale, y * scale, w * scale, h * scale)
 
     size = None
-    if "surface_size" in t:
-        sw, sh = r.numbers(t["surface_size"], (*where, "surface_size"), 2)
+    if given := one_of("size_mm", "surface_size"):
+        key, scale = given
+        sw, sh = (v * scale for v in r.numbers(t[key], (*where, key), 2))
         if sw <= 0 or sh <= 0 or sw > 10 or sh > 10:
-            r.fail((*where, "surface_size"), "must be [width, height] in metres (0 < size <= 10)")
+            unit = (
+                "millimetres (0 < size <= 10000)" if key == "size_mm" else "metres (0 < size <= 10)"
+            )
+            r.fail((*where, key), f"must be [width, height] in {unit}")
         size = (sw, sh)
+    area = one_of("surface_area_mm", "surface_area")
     grab = t.get("grab", False)
     if not isinstance(grab, bool):
         r.fail((*where, "grab"), "must be true or false")
@@ -245,8 +265,8 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
         mode=mode,
         aspect=aspect,
         rotate=int(rotate),
-        surface_area=rect("surface_area"),
-        screen_area=rect("screen_area"),
+        surface_area=rect(*area) if area else None,
+        screen_area=rect("screen_area", 1.0) if "screen_area" in t else None,
         gain=r.number(t["gain"], (*where, "gain")) if "gain" in t else 1.0,
     )
     mapping_given = "mapping" in t

@@ -32,7 +32,7 @@ from stiction.daemon.stats import RateMeter
 from stiction.daemon.wake import Waker
 from stiction.drivers.sample import PenSample
 from stiction.drivers.source import SampleSource
-from stiction.errors import DeviceError, StictionError
+from stiction.errors import DeviceError, SizeUnknown, StictionError
 
 if TYPE_CHECKING:
     from stiction.drivers.info import DeviceInfo
@@ -208,8 +208,28 @@ def _nodes_for(spec: Spec, backend: str | None) -> list[DeviceInfo]:
     return select(discover_all(), lambda i: want in i.name.lower(), backend)
 
 
-def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> SampleSource:
-    """Open what a spec names with the matching driver factory."""
+DAEMON_SIZE_HOW = "size_mm = [width, height] in its [[devices]] entry of the stictiond config"
+"""How stictiond's user gives a device's size (docs/daemon.md)."""
+
+
+def open_source(
+    spec: Spec,
+    cfg: DeviceConfig,
+    realtime: bool,
+    loop: bool,
+    size_how: str = DAEMON_SIZE_HOW,
+) -> SampleSource:
+    """Open what a spec names with the matching driver factory.
+
+    A device without a size is refused naming `size_how`: how the user of the
+    command that opens it (the daemon, `stiction trace`) gives one."""
+    try:
+        return _open_source(spec, cfg, realtime, loop)
+    except SizeUnknown as exc:
+        raise exc.told(size_how) from None
+
+
+def _open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> SampleSource:
     size = cfg.surface_size
     if spec.kind == "synthetic":
         from stiction.drivers.fake import synthetic
@@ -246,7 +266,7 @@ def open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> Sa
         info = usable[0]
         why = f"asked for {backend}" if backend else info.reason
         log.info("device_backend spec=%s node=%s reason=%s", spec.target, info.path, why)
-        return open_source(Spec(info.backend, info.path), cfg, realtime, loop)
+        return _open_source(Spec(info.backend, info.path), cfg, realtime, loop)
     what = f"id {spec.target}" if spec.kind == "vidpid" else f"named like {spec.target!r}"
     through = f" through {backend}" if backend else ""
     if nodes:

@@ -30,7 +30,8 @@ class MappingError(StictionError):
 class MappingConfig:
     """How one device is mapped; every field has a sensible default.
 
-    `surface_area` is in metres from the surface's top-left corner (default:
+    `surface_area` is in metres from the surface's top-left corner (the config's
+    `surface_area_mm`, converted) (default:
     the whole surface), `screen_area` in display pixels (default: the whole
     display). `rotate` is how far the device is turned clockwise, as the user
     sees it. `gain` scales relative motion (1.0: the surface's width spans
@@ -166,8 +167,8 @@ def make_mapping(
     if surface_size is None:
         if cfg.surface_area is None:
             raise MappingError(
-                f"{device}: the device reports no physical size; set surface_size "
-                "(metres) in its [[devices]] entry of the config"
+                f"{device}: the device reports no physical size; set size_mm = [width, height] "
+                "(millimetres) in its [[devices]] entry of the stictiond config"
             )
         surface_size = (
             cfg.surface_area[0] + cfg.surface_area[2],

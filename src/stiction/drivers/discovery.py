@@ -207,7 +207,7 @@ def _decide(hid: list[DeviceInfo], ev: list[DeviceInfo], wish: str | None) -> tu
         return "hidraw", f"its evdev node {lacking}; the HID {where} gives the size"
     if any(i.sized is None for i in hid + ev):
         return "evdev", "the nodes could not be opened to tell their sizes; evdev by default"
-    return "evdev", "neither node has a size (configure surface_size); evdev by default"
+    return "evdev", "neither node has a size (configure size_mm); evdev by default"
 
 
 def choose(

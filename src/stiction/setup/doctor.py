@@ -189,8 +189,8 @@ def _finding(info: DeviceInfo, problem: str | None, detail: str, fix: str = "") 
 def _size_fix(info: DeviceInfo, config: Path) -> str:
     return (
         "measure the active area and add to "
-        f'{config}:  [[devices]]  spec = "{info.path}"  surface_size = [width, height] '
-        "(metres, e.g. [0.216, 0.135]); then `stiction doctor` again "
+        f'{config}:  [[devices]]  spec = "{info.path}"  size_mm = [width, height] '
+        "(millimetres, e.g. [216, 135]); then `stiction doctor` again "
         "(or send the size to stiction's device tables so nobody else has to)"
     )
 

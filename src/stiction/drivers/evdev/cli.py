@@ -14,18 +14,20 @@ import time
 from collections.abc import Iterable, Iterator
 from typing import Any, TextIO
 
+from stiction.argtypes import SIZE_MM_FLAG, size_mm
 from stiction.errors import StictionError
 
 
-def _size(text: str) -> tuple[float, float]:
-    w, sep, h = text.lower().partition("x")
-    try:
-        size = (float(w), float(h))
-    except ValueError:
-        size = (0.0, 0.0)
-    if not sep or not (size[0] > 0 and size[1] > 0):
-        raise argparse.ArgumentTypeError(f"expected WIDTHxHEIGHT in mm, e.g. 100x60, got {text!r}")
-    return size
+def _add_size_option(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument(
+        "--size-mm",
+        "--size",
+        dest="size",
+        type=size_mm,
+        metavar="WxH",
+        help="active area in mm, if not reported (--size: the old name)",
+    )
+    parser.set_defaults(size_how=SIZE_MM_FLAG)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
@@ -50,7 +52,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     d.add_argument(
         "--realtime", action="store_true", help="print at the recorded pace (default: at once)"
     )
-    d.add_argument("--size", type=_size, metavar="WxH", help="active area in mm, if not reported")
+    _add_size_option(d)
     d.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     d.add_argument(
         "--index",
@@ -69,7 +71,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     r.add_argument("--json", action="store_true", help="one JSON object per frame")
     r.add_argument("--grab", action="store_true", help="take the device exclusively")
     r.add_argument("--frames", type=int, metavar="N", help="stop after N frames")
-    r.add_argument("--size", type=_size, metavar="WxH", help="active area in mm, if not reported")
+    _add_size_option(r)
     r.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     r.set_defaults(func=_read)
 

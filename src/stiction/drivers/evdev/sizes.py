@@ -17,7 +17,7 @@ from importlib import resources
 from typing import Any
 
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.errors import DeviceError, StictionError
+from stiction.errors import DeviceError, SizeUnknown, StictionError
 
 
 @dataclass(frozen=True)
@@ -110,9 +110,7 @@ def require(desc: DeviceDescription) -> None:
         )
     if ax.resolution > 0 and ay.resolution > 0:
         return
-    raise DeviceError(
+    raise SizeUnknown(
         f"{desc.name!r} ({desc.vid_pid}) reports no resolution, so its physical size is "
-        "unknown; measure the active area and configure it: surface_size = [width, height] "
-        "in metres in the device's [[devices]] entry of the stictiond config, or --size WxH "
-        "in mm for 'stiction evdev'"
+        "unknown (measure the active area)"
     )

@@ -7,18 +7,12 @@ import json
 import sys
 from typing import Any
 
-from stiction.errors import StictionError
+from stiction.argtypes import SIZE_MM_FLAG, size_mm
+from stiction.errors import SizeUnknown, StictionError
 
 
-def _size(text: str) -> tuple[float, float]:
-    try:
-        w, h = (float(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"{text!r}: give the active area as WIDTHxHEIGHT in millimetres, e.g. 254x158.8"
-        ) from None
-    if not (w > 0 and h > 0):
-        raise argparse.ArgumentTypeError(f"{text!r}: width and height must be > 0")
+def _size_m(text: str) -> tuple[float, float]:
+    w, h = size_mm(text)
     return w / 1000.0, h / 1000.0
 
 
@@ -109,6 +103,8 @@ def _decode(args: argparse.Namespace) -> int:
     try:
         stream = ReportStream(desc, rec.name or args.file, args.size, lookup(rec.vid, rec.pid))
     except StictionError as exc:
+        if isinstance(exc, SizeUnknown):
+            exc = exc.told(SIZE_MM_FLAG)
         print(f'stiction: warning: {exc}; printing "contacts": null', file=sys.stderr)
         stream = None
     for ev in rec.events:
@@ -198,11 +194,15 @@ def _record(args: argparse.Namespace) -> int:
 
 def _add_size_option(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
+        "--size-mm",
         "--size",
-        type=_size,
+        dest="size",
+        type=_size_m,
         metavar="WxH",
-        help="active area in mm when the descriptor and device table lack it",
+        help="active area in mm when the descriptor and device table lack it "
+        "(--size: the old name)",
     )
+    parser.set_defaults(size_how=SIZE_MM_FLAG)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:

@@ -18,7 +18,7 @@ from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, ReportDescriptor
 from stiction.drivers.hid.units import degrees_per_logical, extent_m, unit_name
 from stiction.drivers.sample import PenSample, Tool
-from stiction.errors import DeviceError
+from stiction.errors import DeviceError, SizeUnknown
 
 GD_X, GD_Y = 0x00010030, 0x00010031
 DIG = 0x000D0000
@@ -148,14 +148,13 @@ def _axis_size(f: Field, override: float | None) -> float | None:
     return extent_m(f)
 
 
-def _size_error(device: str, f: Field, which: str) -> DeviceError:
-    return DeviceError(
+def _size_error(device: str, f: Field, which: str) -> SizeUnknown:
+    return SizeUnknown(
         f"{device}: the report descriptor gives no physical size for {which} "
         f"(unit {unit_name(f.unit)}, physical {f.physical_min}..{f.physical_max}), so its "
-        "coordinates cannot be converted to metres; give its active area: size_mm in "
-        "~/.config/stiction/hid-devices.toml (see docs/devices.md), surface_size (metres) "
-        "in the daemon config's [[devices]] entry, or --size WxH in millimetres "
-        "(e.g. --size 254x158.8)"
+        "coordinates cannot be converted to metres",
+        "size_mm = [width, height] in its entry of ~/.config/stiction/hid-devices.toml "
+        "(docs/devices.md)",
     )
 
 
