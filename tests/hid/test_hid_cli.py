@@ -74,7 +74,13 @@ def test_decode_without_size_prints_null_contacts_and_warns_once(
     assert all(line["contacts"] is None for line in lines)
     assert captured.err.count("warning") == 1 and "--size-mm WxH" in captured.err
     lines = _lines(
-        capsys, "hid", "decode", str(hid_data / "huion-hs610.hid"), "--json", "--size-mm", "254x158.75"
+        capsys,
+        "hid",
+        "decode",
+        str(hid_data / "huion-hs610.hid"),
+        "--json",
+        "--size-mm",
+        "254x158.75",
     )
     assert sum(len(line["contacts"]) for line in lines) == 2527
     tilts = [v for line in lines for v in line["fields"]["0x000d003d"]]
