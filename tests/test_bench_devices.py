@@ -1,0 +1,97 @@
+"""The coverage benchmark's judgement: the kernel's resolution model, the tolerance, the verdicts.
+
+Verdicts are checked on real captures of shared/data/coverage, copied into a
+folder of their own with the oracle as captured or with libinput's size
+changed, so that each verdict is shown to follow from the figures.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+
+import pytest
+
+from stiction.bench._kernel_res import kernel_extent_mm, kernel_resolution
+from stiction.bench.devices import coverage_rows, recording_rows, sizes_match
+from stiction.drivers.hid.descriptor import Field
+
+
+def _axis(lmax: int, pmax: int, unit: int, exponent: int) -> Field:
+    return Field(0, 0x10030, 0, 16, 1, 0, lmax, 0, pmax, unit, exponent, 2, 0x000D0004)
+
+
+def test_kernel_rounds_resolution_to_whole_units_per_mm() -> None:
+    """ThinkPad T14s touch screen: 1872 units over 17.4 cm (10.76 per mm) make resolution 11."""
+    y = _axis(1872, 174, 0x11, -1)
+    assert kernel_resolution(y) == 11
+    assert kernel_extent_mm(y) == pytest.approx(170.18, abs=0.01)
+
+
+def test_kernel_reads_inches_and_refuses_other_units() -> None:
+    pen_y = _axis(6480, 1652, 0x13, -3)  # 1.652 in over 6480 units: 154.4/mm -> 154
+    assert kernel_resolution(pen_y) == 154
+    assert kernel_resolution(_axis(32767, 2048, 0x33, -3)) == 0  # in^3: no resolution
+    assert kernel_resolution(_axis(100, 0, 0x11, -2)) == 0  # no physical extent
+    assert kernel_extent_mm(_axis(100, 0, 0x11, -2)) is None
+
+
+def test_tolerance_is_two_percent_or_one_and_a_half_mm_per_side() -> None:
+    assert sizes_match((51.4, 100.0), (50.0, 100.0))  # 1.5 mm beats 2% on a small side
+    assert not sizes_match((51.6, 100.0), (50.0, 100.0))
+    assert sizes_match((306.0, 170.0), (300.0, 170.0))  # 2% beats 1.5 mm on a large one
+    assert not sizes_match((306.5, 170.0), (300.0, 170.0))
+    assert not sizes_match((300.0, 174.0), (300.0, 170.0))  # each side counts
+
+
+def _copy(src: Path, dst: Path, slug: str, libinput_mm: list[float] | None = None) -> None:
+    shutil.copy(src / f"{slug}.hid", dst / f"{slug}.hid")
+    oracle = json.loads((src / f"{slug}.json").read_text())
+    if libinput_mm is not None:
+        for d in oracle["libinput"]:
+            if d["size_mm"]:
+                d["size_mm"] = libinput_mm
+    (dst / f"{slug}.json").write_text(json.dumps(oracle))
+
+
+@pytest.mark.parametrize(
+    ("slug", "libinput_mm", "verdict", "reason"),
+    [
+        ("acer-spin-5-04f32560-1", None, "match", ""),
+        ("lenovo-thinkpad-t14s-gen-1-04f32d4a-1", None, "libinput wrong", "rounds the resolution"),
+        ("lenovo-thinkpad-t14s-gen-1-04f32d4a-1", [309.0, 150.0], "miss", "not what the kernel"),
+        ("lenovo-chromebook-duet-5-27c60e51-1", None, "libinput wrong", "another unit"),
+        ("huion-q620m-256c006d-2", None, "not a surface", "dial or wheel"),
+        ("huion-kamvas-13-256c006d-2", None, "match", ""),  # its touch screen, pen left out
+    ],
+)
+def test_verdicts_follow_from_the_figures(
+    coverage_data: Path,
+    tmp_path: Path,
+    slug: str,
+    libinput_mm: list[float] | None,
+    verdict: str,
+    reason: str,
+) -> None:
+    _copy(coverage_data, tmp_path, slug, libinput_mm)
+    (row,) = coverage_rows(tmp_path)
+    assert row.verdict == verdict
+    assert reason in row.reason
+
+
+def test_recordings_give_contacts_and_are_checked_against_a_known_size(
+    hid_data: Path, coverage_data: Path, tmp_path: Path
+) -> None:
+    """XP-Pen Artist 10S: its capture in the coverage set is the oracle; a wrong oracle fails it."""
+    recs = tmp_path / "hid"
+    recs.mkdir()
+    shutil.copy(hid_data / "xp-pen-artist-10s.hid", recs)
+    (row,) = recording_rows(recs, coverage_data, None)
+    assert row["ok"] and row["touching"] > 0 and row["size_matches"]
+    assert row["known_mm"] == (217.0, 136.0)
+    cov = tmp_path / "cov"
+    cov.mkdir()
+    _copy(coverage_data, cov, "xp-pen-artist-10s-5543004a-1", [254.0, 158.8])
+    (row,) = recording_rows(recs, cov, None)
+    assert not row["ok"] and row["size_matches"] is False
