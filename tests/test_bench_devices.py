@@ -95,3 +95,21 @@ def test_recordings_give_contacts_and_are_checked_against_a_known_size(
     _copy(coverage_data, cov, "xp-pen-artist-10s-5543004a-1", [254.0, 158.8])
     (row,) = recording_rows(recs, cov, None)
     assert not row["ok"] and row["size_matches"] is False
+
+
+def test_a_refused_descriptor_is_a_named_miss_and_no_size_is_not_compared(
+    coverage_data: Path, tmp_path: Path
+) -> None:
+    slug = "acer-spin-5-04f32560-1"
+    _copy(coverage_data, tmp_path, slug)
+    oracle = json.loads((tmp_path / f"{slug}.json").read_text())
+    for d in oracle["libinput"]:
+        d["size_mm"] = None
+    (tmp_path / f"{slug}.json").write_text(json.dumps(oracle))
+    broken = tmp_path / "broken-0000-1.hid"
+    broken.write_text("N: broken\nI: 3 1234 5678\nR: 2 a1 01\n")  # a collection never closed
+    (tmp_path / "broken-0000-1.json").write_text(json.dumps({"libinput": []}))
+    by_slug = {r.slug: r for r in coverage_rows(tmp_path)}
+    assert by_slug["broken-0000-1"].verdict == "miss"
+    assert "never closed" in by_slug["broken-0000-1"].reason
+    assert by_slug[slug].verdict == "no libinput size"

@@ -44,7 +44,8 @@ LIBINPUT_KIND = {"pen": "tablet", "touchscreen": "touchscreen", "touchpad": "tou
 # as a touch device (uclogic's frame dial is 10 x 10 mm), not a surface.
 NOT_A_SURFACE_MM = 25.0
 
-OK_VERDICTS = ("match", "vendor-init", "not a surface")
+MAX_CLAMPED = 0.01  # of a recording's samples
+OK_VERDICTS = ("match", "vendor-init", "not a surface", "no libinput size")
 
 
 def sizes_match(ours_mm: tuple[float, float], theirs_mm: tuple[float, float]) -> bool:
@@ -193,6 +194,13 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
     if pick is not None:
         row.libinput_mm = (float(pick["size_mm"][0]), float(pick["size_mm"][1]))
         row.libinput_kind = pick.get("kind")
+    if row.problem and row.problem.startswith("refused: "):
+        row.verdict, row.reason = "miss", row.problem
+        return
+    if row.surface_mm is not None and not sized:
+        row.verdict = "no libinput size"
+        row.reason = "libinput printed no size for this node: nothing to compare"
+        return
     if row.surface_mm is not None:
         candidates = same or sized
         hit = next(
@@ -232,23 +240,30 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
         return
     row.verdict = "needs catalogue"
     driver = row.driver or "unknown"
-    if driver == "wacom":
+    if row.kind is None and driver == "wacom":
         row.reason = (
-            "the pen sits in Wacom's own report format; the kernel's wacom driver takes "
-            "its size from its device table"
+            "the pen sits in Wacom's own report format; the kernel's wacom driver knows "
+            "its layout and size from its device table"
         )
-    elif row.problem and "unit" in row.problem:
+    elif row.kind is None:
         row.reason = (
-            "its descriptor's unit is not a length (UC-Logic firmware declares in^3); "
-            f"the size comes from the vendor (libinput's came through {driver})"
+            "no digitizer report: the pen sits in a vendor or mouse collection, which only "
+            f"device knowledge can name (the kernel bound {driver})"
+        )
+    elif row.problem and "physical size" in row.problem:
+        unit = row.problem.split("(unit ", 1)[-1].split(",", 1)[0]
+        row.reason = (
+            f"its descriptor gives no length for X/Y (unit {unit}); the size is the "
+            f"vendor's (libinput's came through {driver})"
         )
     else:
         row.reason = row.problem or "no size in its descriptor"
 
 
 def coverage_rows(data: Path, limit: int | None = None) -> list[Row]:
-    from stiction.drivers.hid.facts import describe_device
+    from stiction.drivers.hid.facts import DeviceFacts, describe_device
     from stiction.drivers.hid.recording import load_recording
+    from stiction.errors import StictionError
 
     rows = []
     for path in sorted(data.glob("*.json"))[:limit]:
@@ -257,7 +272,10 @@ def coverage_rows(data: Path, limit: int | None = None) -> list[Row]:
         if "libinput" not in oracle or not hid.is_file():
             continue
         rec = load_recording(hid)
-        facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+        try:
+            facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+        except StictionError as exc:  # a descriptor stiction refuses outright
+            facts = DeviceFacts(None, None, None, None, "hidraw", f"refused: {exc}")
         only, only_problem = descriptor_only(rec.descriptor, rec.name)
         row = Row(
             slug=path.stem,
@@ -348,13 +366,49 @@ def _known_size(
                     )
     if tablets is not None and (tablets / "otd-tablets.json").is_file():
         otd = json.loads((tablets / "otd-tablets.json").read_text())
+        named = []
         for t in otd["tablets"]:
-            ids = {f"{i['vid']}:{i['pid']}" for i in t["identifiers"]}
-            if vid_pid in ids and _tokens(t["name"]) <= words:
-                return (float(t["width_mm"]), float(t["height_mm"])), (
-                    f"OpenTabletDriver {t['file']}"
-                )
+            name_words = _tokens(t["name"])
+            if len(name_words) >= 2 and name_words <= words:
+                ids = {f"{i['vid']}:{i['pid']}" for i in t["identifiers"]}
+                named.append((vid_pid in ids, len(name_words), t))
+        if named:
+            # The same id first; else the most specific name (UGEE M708 V2, not M708):
+            # a model keeps its name when its maker changes its product id.
+            same_id, _, t = max(named, key=lambda c: (c[0], c[1]))
+            note = "" if same_id else f", another id ({vid_pid} is not listed there)"
+            return (float(t["width_mm"]), float(t["height_mm"])), (
+                f"OpenTabletDriver {t['file']}{note}"
+            )
     return None
+
+
+def _negatives(data: Path) -> set[str]:
+    """Recordings the folder's README lists as negatives ("mouse (negative)", ...)."""
+    readme = data / "README.md"
+    if not readme.is_file():
+        return set()
+    out = set()
+    for line in readme.read_text().splitlines():
+        parts = [p.strip() for p in line.split("|")]
+        if len(parts) > 2 and parts[0].startswith("- `") and "negative" in parts[2]:
+            out.add(parts[0][3:].split("`", 1)[0])
+    return out
+
+
+def _failed(stem: str, vid_pid: str, reason: str) -> dict[str, Any]:
+    return {
+        "recording": stem,
+        "vid_pid": vid_pid,
+        "size_from": None,
+        "surface_mm": None,
+        "known_mm": None,
+        "known_from": None,
+        "samples": 0,
+        "touching": 0,
+        "ok": False,
+        "reason": reason,
+    }
 
 
 def recording_rows(
@@ -364,16 +418,23 @@ def recording_rows(
     from stiction.drivers.hid.facts import describe_device
     from stiction.drivers.hid.playback import open_replay
     from stiction.drivers.hid.recording import load_recording
+    from stiction.errors import StictionError
 
+    negatives = _negatives(data)
     rows = []
     for path in sorted(data.glob("*.hid"))[:limit]:
         rec = load_recording(path)
-        if not rec.events:
-            continue
-        facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
-        if facts.kind is None:
-            continue  # a mouse or keyboard: refused, as `hid describe` says
+        if not rec.events or path.name in negatives:
+            continue  # no reports, or a mouse or keyboard the folder's README names as such
         vid_pid = f"{rec.vid:04x}:{rec.pid:04x}"
+        try:
+            facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+        except StictionError as exc:
+            rows.append(_failed(path.stem, vid_pid, f"refused: {exc}"))
+            continue
+        if facts.kind is None:
+            rows.append(_failed(path.stem, vid_pid, facts.problem or "no contact report"))
+            continue
         known = _known_size(path.stem, rec.name, vid_pid, coverage, tablets)
         given = None
         if facts.surface_m is None and known is not None:
@@ -390,19 +451,39 @@ def recording_rows(
             row.update(samples=0, touching=0, ok=False, reason=facts.problem or "no size")
             rows.append(row)
             continue
-        src = open_replay(path, size_m=given)
-        samples = list(src.samples())
+        try:
+            src = open_replay(path, size_m=given)
+            samples = list(src.samples())
+        except StictionError as exc:
+            rows.append(_failed(path.stem, vid_pid, f"replay refused: {exc}"))
+            continue
         surface = src.surface_size
         assert surface is not None  # a stream without a size is refused above
         touching = sum(s.tip for s in samples)
         inside = all(0.0 <= s.x <= surface[0] and 0.0 <= s.y <= surface[1] for s in samples)
-        size_ok = known is None or sizes_match(_mm(surface) or (0, 0), known[0])
+        # Positions beyond the declared range are clamped onto the surface: many of
+        # them would mean the descriptor's range (so its size) is not the device's.
+        clamped = src.stream.stats["clamped_positions"]
+        reach = (
+            max(s.x for s in samples) / surface[0] if samples else 0.0,
+            max(s.y for s in samples) / surface[1] if samples else 0.0,
+        )
+        # A vendor-init tablet is replayed with the known size (the init gives it
+        # live), so its size is not checked here, only its contacts.
+        checked = known is not None and given is None
+        size_ok = known is None or not checked or sizes_match(_mm(surface) or (0, 0), known[0])
         row.update(
             samples=len(samples),
             touching=touching,
             reports=src.stream.stats["reports"],
-            size_matches=None if known is None else size_ok,
-            ok=bool(samples) and touching > 0 and inside and size_ok,
+            size_matches=size_ok if checked else None,
+            clamped=clamped,
+            reach=reach,
+            ok=bool(samples)
+            and touching > 0
+            and inside
+            and size_ok
+            and clamped <= MAX_CLAMPED * len(samples),
         )
         if facts.size_from == "vendor-init":
             row["reason"] = "vendor-init: replayed with the known size the tablet gives live"
@@ -412,6 +493,10 @@ def recording_rows(
             row["reason"] = "surface differs from the known size"
         rows.append(row)
     return rows
+
+
+def _reach(reach: tuple[float, float] | None) -> str:
+    return "-" if reach is None else f"{reach[0]:.0%}/{reach[1]:.0%}"
 
 
 def _fmt(size: tuple[float, float] | None) -> str:
@@ -461,21 +546,22 @@ def _table(rows: list[Row], result: dict[str, Any], recs: list[dict[str, Any]]) 
         f"descriptor only {only['match_rate']:.1%}) (target >= {TARGET_MATCH:.0%}: {met_match})",
         "",
         f"{'tablet recording':36s} {'from':11s} {'surface mm':13s} {'known mm':13s}"
-        f" {'samples':>7s} {'touching':>8s} ok",
+        f" {'samples':>7s} {'touching':>8s} {'clamped':>7s} {'reach %':>9s} ok",
     ]
     for rec in recs:
         lines.append(
             f"{rec['recording'][:36]:36s} {str(rec['size_from'])[:11]:11s}"
             f" {_fmt(rec['surface_mm']):13s} {_fmt(rec['known_mm']):13s} {rec['samples']:7d}"
-            f" {rec['touching']:8d} {'yes' if rec['ok'] else 'NO'}"
+            f" {rec['touching']:8d} {rec.get('clamped', 0):7d}"
+            f" {_reach(rec.get('reach')):>9s} {'yes' if rec['ok'] else 'NO'}"
             + (f"  ({rec['reason']})" if rec.get("reason") else "")
         )
     ok = sum(r["ok"] for r in recs)
-    known = [r for r in recs if r["known_mm"] is not None]
+    checked = [r for r in recs if r.get("size_matches") is not None]
     lines.append(
         f"tablet recordings giving contacts: {ok}/{len(recs)}; of the right size: "
-        f"{sum(bool(r.get('size_matches')) for r in known)}/{len(known)} with an independent "
-        f"size ({len(recs) - len(known)} have none)"
+        f"{sum(bool(r['size_matches']) for r in checked)}/{len(checked)} with an independent "
+        f"size ({len(recs) - len(checked)} without one or sized by the vendor's init)"
     )
     return "\n".join(lines)
 
