@@ -14,7 +14,12 @@ from pathlib import Path
 import pytest
 
 from stiction.bench._kernel_res import kernel_extent_mm, kernel_resolution
-from stiction.bench.devices import coverage_rows, recording_rows, sizes_match
+from stiction.bench.devices import (
+    coverage_rows,
+    descriptor_file_rows,
+    recording_rows,
+    sizes_match,
+)
 from stiction.drivers.hid.descriptor import Field
 
 
@@ -113,3 +118,30 @@ def test_a_refused_descriptor_is_a_named_miss_and_no_size_is_not_compared(
     assert by_slug["broken-0000-1"].verdict == "miss"
     assert "never closed" in by_slug["broken-0000-1"].reason
     assert by_slug[slug].verdict == "no libinput size"
+
+
+def test_descriptor_files_are_checked_against_an_otd_size_of_the_same_model(
+    hid_data: Path, tmp_path: Path
+) -> None:
+    """XP-Pen Deco mini7: OTD's size matches; a model name that differs is no oracle."""
+    folder = tmp_path / "hid"
+    folder.mkdir()
+    shutil.copy(hid_data / "xp-pen-deco-mini7.hid", folder)
+    tablets = tmp_path / "tablets"
+    tablets.mkdir()
+
+    def otd(name: str, size: tuple[float, float]) -> None:
+        ident = {"vid": "28bd", "pid": "0928"}
+        t = {"name": name, "file": "x.json", "width_mm": size[0], "height_mm": size[1]}
+        doc = {"tablets": [{**t, "identifiers": [ident]}]}
+        (tablets / "otd-tablets.json").write_text(json.dumps(doc))
+
+    otd("XP-Pen Deco mini7", (177.8, 111.1))
+    (row,) = descriptor_file_rows(folder, None, tablets)
+    assert row["ok"] is True and row["known_mm"] == (177.8, 111.1)
+    otd("XP-Pen Deco mini7", (254.0, 152.4))
+    (row,) = descriptor_file_rows(folder, None, tablets)
+    assert row["ok"] is False
+    otd("XP-Pen Deco 01", (254.0, 152.4))
+    (row,) = descriptor_file_rows(folder, None, tablets)
+    assert row["ok"] is None and row["known_mm"] is None

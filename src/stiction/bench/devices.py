@@ -240,12 +240,15 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
         return
     row.verdict = "needs catalogue"
     driver = row.driver or "unknown"
-    if row.kind is None and driver == "wacom":
+    no_contacts = row.kind is None or "no pen, touch screen or touchpad report" in (
+        row.problem or ""
+    )
+    if no_contacts and driver == "wacom":
         row.reason = (
             "the pen sits in Wacom's own report format; the kernel's wacom driver knows "
             "its layout and size from its device table"
         )
-    elif row.kind is None:
+    elif no_contacts:
         row.reason = (
             "no digitizer report: the pen sits in a vendor or mouse collection, which only "
             f"device knowledge can name (the kernel bound {driver})"
@@ -258,6 +261,12 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
         )
     else:
         row.reason = row.problem or "no size in its descriptor"
+    if row.libinput_mm is not None and not no_contacts and not _readings(raw, row.kind):
+        w, h = row.libinput_mm
+        row.reason += (
+            f"; libinput's {w:g} x {h:g} mm is not from this descriptor (the kernel derives "
+            "no resolution from it), so it is no check of a size read from it"
+        )
 
 
 def coverage_rows(data: Path, limit: int | None = None) -> list[Row]:
@@ -495,6 +504,44 @@ def recording_rows(
     return rows
 
 
+def descriptor_file_rows(
+    data: Path, coverage: Path | None, tablets: Path | None, limit: int | None = None
+) -> list[dict[str, Any]]:
+    """The files of the recordings folder that hold a descriptor but no reports: their size."""
+    from stiction.drivers.hid.facts import describe_device
+    from stiction.drivers.hid.recording import load_recording
+    from stiction.errors import StictionError
+
+    negatives = _negatives(data)
+    rows = []
+    for path in sorted(data.glob("*.hid"))[:limit]:
+        rec = load_recording(path)
+        if rec.events or path.name in negatives:
+            continue
+        vid_pid = f"{rec.vid:04x}:{rec.pid:04x}"
+        try:
+            facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+        except StictionError as exc:
+            rows.append({"file": path.stem, "kind": None, "ok": False, "reason": str(exc)})
+            continue
+        known = _known_size(path.stem, rec.name, vid_pid, coverage, tablets)
+        surface = _mm(facts.surface_m)
+        row: dict[str, Any] = {
+            "file": path.stem,
+            "kind": facts.kind,
+            "size_from": facts.size_from,
+            "surface_mm": surface,
+            "known_mm": known[0] if known else None,
+            "known_from": known[1] if known else None,
+        }
+        if known is None or surface is None:
+            row["ok"] = None  # nothing to compare
+        else:
+            row["ok"] = sizes_match(surface, known[0])
+        rows.append(row)
+    return rows
+
+
 def _reach(reach: tuple[float, float] | None) -> str:
     return "-" if reach is None else f"{reach[0]:.0%}/{reach[1]:.0%}"
 
@@ -503,7 +550,12 @@ def _fmt(size: tuple[float, float] | None) -> str:
     return "-" if size is None else f"{size[0]:.1f}x{size[1]:.1f}"
 
 
-def _table(rows: list[Row], result: dict[str, Any], recs: list[dict[str, Any]]) -> str:
+def _table(
+    rows: list[Row],
+    result: dict[str, Any],
+    recs: list[dict[str, Any]],
+    files: list[dict[str, Any]],
+) -> str:
     head = (
         f"{'descriptor':46s} {'driver':14s} {'kind':11s} {'stiction mm':13s} {'from':11s}"
         f" {'descr-only':13s} {'libinput':13s} verdict"
@@ -556,6 +608,22 @@ def _table(rows: list[Row], result: dict[str, Any], recs: list[dict[str, Any]]) 
             f" {_reach(rec.get('reach')):>9s} {'yes' if rec['ok'] else 'NO'}"
             + (f"  ({rec['reason']})" if rec.get("reason") else "")
         )
+    lines += [
+        "",
+        f"{'descriptor without reports':36s} {'kind':11s} {'from':11s} {'surface mm':13s}"
+        f" {'known mm':13s} matches",
+    ]
+    for d in files:
+        match = {True: "yes", False: "NO", None: "-"}[d["ok"]]
+        lines.append(
+            f"{d['file'][:36]:36s} {d.get('kind')!s:11s} {str(d.get('size_from'))[:11]:11s}"
+            f" {_fmt(d.get('surface_mm')):13s} {_fmt(d.get('known_mm')):13s} {match}"
+        )
+    compared = [d for d in files if d["ok"] is not None]
+    lines.append(
+        f"descriptors without reports whose size matches a known one: "
+        f"{sum(d['ok'] for d in compared)}/{len(compared)}"
+    )
     ok = sum(r["ok"] for r in recs)
     checked = [r for r in recs if r.get("size_matches") is not None]
     lines.append(
@@ -582,7 +650,9 @@ def main(argv: list[str]) -> int:
     tablets = data.parent / "tablets"
     with _no_user_table():
         rows = coverage_rows(data, args.limit)
-        recs = recording_rows(recordings, data, tablets if tablets.is_dir() else None, args.limit)
+        otd = tablets if tablets.is_dir() else None
+        recs = recording_rows(recordings, data, otd, args.limit)
+        files = descriptor_file_rows(recordings, data, otd, args.limit)
     result: dict[str, Any] = {
         "new": _rates(rows),
         "descriptor_only": _rates(rows, only=True),
@@ -591,16 +661,25 @@ def main(argv: list[str]) -> int:
         "by_kind": _by(rows, "libinput_kind"),
         "recordings_ok": sum(r["ok"] for r in recs),
         "recordings": recs,
+        "descriptor_files": files,
         "targets": {"coverage": TARGET_SURFACE, "match_rate": TARGET_MATCH},
         "tolerance": {"relative": TOL_REL, "mm": TOL_MM},
         "devices": [asdict(r) for r in rows],
         "command": "stiction bench devices --json",
     }
-    table = _table(rows, result, recs)
+    table = _table(rows, result, recs, files)
     (results_dir() / "devices.json").write_text(json.dumps(result, indent=2) + "\n")
     (results_dir() / "devices.txt").write_text(table + "\n")
     if args.json:
-        print(json.dumps({k: v for k, v in result.items() if k not in ("devices", "recordings")}))
+        print(
+            json.dumps(
+                {
+                    k: v
+                    for k, v in result.items()
+                    if k not in ("devices", "recordings", "descriptor_files")
+                }
+            )
+        )
     else:
         print(table)
     return 0
