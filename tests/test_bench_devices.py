@@ -145,3 +145,18 @@ def test_descriptor_files_are_checked_against_an_otd_size_of_the_same_model(
     otd("XP-Pen Deco 01", (254.0, 152.4))
     (row,) = descriptor_file_rows(folder, None, tablets)
     assert row["ok"] is None and row["known_mm"] is None
+
+
+def test_a_folder_with_only_the_corpus_file_is_read_the_same(
+    coverage_data: Path, tmp_path: Path
+) -> None:
+    """corpus.jsonl (descriptor_hex + the oracle) gives the rows the .json/.hid pairs give."""
+    lines = (coverage_data / "corpus.jsonl").read_text().splitlines()[:5]
+    (tmp_path / "corpus.jsonl").write_text("\n".join(lines) + "\n")
+    pairs = tmp_path / "pairs"
+    pairs.mkdir()
+    for line in lines:
+        _copy(coverage_data, pairs, json.loads(line)["slug"])
+    from_corpus = {r.slug: (r.verdict, r.surface_mm) for r in coverage_rows(tmp_path)}
+    from_pairs = {r.slug: (r.verdict, r.surface_mm) for r in coverage_rows(pairs)}
+    assert from_corpus == from_pairs and len(from_corpus) == 5

@@ -33,9 +33,12 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from stiction.bench._support import results_dir, shared_data
+
+if TYPE_CHECKING:
+    from stiction.drivers.hid.recording import Recording
 
 TOL_REL, TOL_MM = 0.02, 1.5
 TARGET_SURFACE, TARGET_MATCH = 0.98, 0.97
@@ -57,6 +60,8 @@ def sizes_match(ours_mm: tuple[float, float], theirs_mm: tuple[float, float]) ->
 
 @dataclass
 class Row:
+    """One capture: stiction's answer, the descriptor alone's, libinput's, and the verdict."""
+
     slug: str
     vid_pid: str
     driver: str | None
@@ -269,25 +274,41 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
         )
 
 
+def _captures(data: Path, limit: int | None) -> Iterator[tuple[str, dict[str, Any], Recording]]:
+    """(slug, oracle, descriptor) of every capture: <slug>.json beside <slug>.hid, or,
+    in a folder that holds only the corpus, the lines of corpus.jsonl (descriptor_hex)."""
+    from stiction.drivers.hid.recording import Recording, load_recording
+
+    pairs = [p for p in sorted(data.glob("*.json")) if p.with_suffix(".hid").is_file()]
+    if pairs or not (data / "corpus.jsonl").is_file():
+        for path in pairs[:limit]:
+            oracle = json.loads(path.read_text())
+            if "libinput" in oracle:
+                yield path.stem, oracle, load_recording(path.with_suffix(".hid"))
+        return
+    lines = (data / "corpus.jsonl").read_text().splitlines()
+    for line in [ln for ln in lines if ln.strip()][:limit]:
+        o = json.loads(line)
+        raw = bytes.fromhex(o["descriptor_hex"])
+        rec = Recording(o.get("product", ""), int(o["bus"], 16), int(o["vid"], 16),
+                        int(o["pid"], 16), raw)  # fmt: skip
+        yield o["slug"], o, rec
+
+
 def coverage_rows(data: Path, limit: int | None = None) -> list[Row]:
+    """One judged row per capture of the coverage folder."""
     from stiction.drivers.hid.facts import DeviceFacts, describe_device
-    from stiction.drivers.hid.recording import load_recording
     from stiction.errors import StictionError
 
     rows = []
-    for path in sorted(data.glob("*.json"))[:limit]:
-        oracle = json.loads(path.read_text())
-        hid = path.with_suffix(".hid")
-        if "libinput" not in oracle or not hid.is_file():
-            continue
-        rec = load_recording(hid)
+    for slug, oracle, rec in _captures(data, limit):
         try:
             facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
         except StictionError as exc:  # a descriptor stiction refuses outright
             facts = DeviceFacts(None, None, None, None, "hidraw", f"refused: {exc}")
         only, only_problem = descriptor_only(rec.descriptor, rec.name)
         row = Row(
-            slug=path.stem,
+            slug=slug,
             vid_pid=f"{rec.vid:04x}:{rec.pid:04x}",
             driver=oracle.get("kernel_driver"),
             kind=facts.kind,
@@ -364,14 +385,13 @@ def _known_size(
     """
     words = _tokens(stem.replace("-", " ")) | _tokens(name)
     if coverage is not None:
-        for path in sorted(coverage.glob("*.json")):
-            o = json.loads(path.read_text())
+        for slug, o, _ in _captures(coverage, None):
             if f"{o.get('vid')}:{o.get('pid')}" != vid_pid or not _tokens(o["product"]) <= words:
                 continue
             for d in o["libinput"]:
                 if d.get("kind") == "tablet" and d.get("size_mm"):
                     return (float(d["size_mm"][0]), float(d["size_mm"][1])), (
-                        f"libinput on a real {o['product']} ({path.name})"
+                        f"libinput on a real {o['product']} ({slug})"
                     )
     if tablets is not None and (tablets / "otd-tablets.json").is_file():
         otd = json.loads((tablets / "otd-tablets.json").read_text())
