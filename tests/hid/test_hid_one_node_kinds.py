@@ -85,3 +85,29 @@ def test_a_pen_without_length_alone_is_still_refused(hid_data: Path) -> None:
     assert device_kind(desc) == "pen"
     with pytest.raises(DeviceError, match="no physical size for X"):
         ReportStream(desc, "hs610")
+
+
+def test_pen_reported_as_a_mouse_is_a_pen_when_no_digitizer_report_exists(hid_data: Path) -> None:
+    """XP-Pen/UGEE firmware (Deco 03): absolute X/Y and Tip Pressure in a Mouse collection.
+
+    Without any table entry it is now a pen that needs a size, not "no pen";
+    with only a size (what a catalogue of active areas gives), it decodes.
+    """
+    rec = load_recording(hid_data / "xp-pen-deco-03.hid")
+    desc = parse_descriptor(rec.descriptor)
+    assert device_kind(desc) == "pen"
+    with pytest.raises(DeviceError, match="no physical size for X"):
+        ReportStream(desc, "deco 03")
+    stream = ReportStream(desc, "deco 03", (0.254, 0.1427))
+    samples = [s for ev in rec.events for s in stream.feed(ev.t, ev.data)]
+    assert sum(s.tip for s in samples) > 1000  # pressure > 0 is the tip (no tip bit)
+    assert stream.stats["samples"] == len(samples) and stream.stats["clamped_positions"] == 0
+
+
+def test_mouse_mode_report_with_pressure_is_not_a_pen_beside_a_digitizer_report(
+    hid_data: Path,
+) -> None:
+    """Huion 580 also sends a Mouse report (report 9) in its default mode: the pen is report 7."""
+    desc = parse_descriptor(load_recording(hid_data / "huion-580.hid").descriptor)
+    stream = ReportStream(desc, "580")
+    assert set(stream.mappings) == {7}

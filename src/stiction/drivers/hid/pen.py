@@ -175,9 +175,14 @@ def build_mappings(
     """
     mappings: dict[int, ReportMapping] = {}
     unsized: list[tuple[str | None, DeviceError]] = []  # (kind, why) of reports left out
+    pointer_pens = not _has_digitizer(desc)
     for rid, report in desc.input_reports.items():
         page = report.application >> 16
-        if page not in (DIG >> 16, WACOM_VENDOR_PAGE) and rid not in pen_reports:
+        if (
+            page not in (DIG >> 16, WACOM_VENDOR_PAGE)
+            and rid not in pen_reports
+            and not (pointer_pens and _pen_in_pointer(report))
+        ):
             continue
         skip = False
         decoder = ReportDecoder(report)
@@ -201,7 +206,7 @@ def build_mappings(
             h = _axis_size(fy, size_m[1] if size_m else None)
             if w is None or h is None:
                 why = _size_error(device, fx, "X") if w is None else _size_error(device, fy, "Y")
-                unsized.append((APPLICATION_KIND.get(report.application), why))
+                unsized.append((report_kind(report, pointer_pens), why))
                 skip = True
                 break
             finger = group_usage.get(gid) == DIG_FINGER or (
@@ -247,7 +252,7 @@ def build_mappings(
     # that have one: the kernel makes one input device per kind, and libinput
     # drops a tablet without resolution while the node's touch screen works
     # (Huion Kamvas 13's touch interface also declares the firmware pen in in^3).
-    kept = {APPLICATION_KIND.get(desc.input_reports[rid].application) for rid in mappings}
+    kept = {report_kind(desc.input_reports[rid], pointer_pens) for rid in mappings}
     for kind, why in unsized:
         if not kept or kind in kept:
             raise why
@@ -311,6 +316,48 @@ def _one_panel(mappings: dict[int, ReportMapping]) -> dict[int, ReportMapping]:
     return out
 
 
+GD_POINTER, GD_MOUSE = 0x00010001, 0x00010002
+
+
+def _pen_in_pointer(report: Report) -> bool:
+    """A pen reported as a Mouse (or Pointer): absolute X and Y beside a Tip Pressure.
+
+    XP-Pen and UGEE firmware ("UGTABLET", the Deco 03's report 9) put the pen
+    in a Mouse application collection: absolute X/Y and Tip Pressure, the
+    tip on button 1. No mouse has a pressure axis and absolute coordinates
+    (virtual machines' absolute pointers have none); tablets that also have
+    a digitizer report are read from that one (see _has_digitizer).
+    """
+    if report.application not in (GD_POINTER, GD_MOUSE):
+        return False
+    absolute = {f.usage for f in report.fields if f.variable and not f.constant and not f.relative}
+    return {GD_X, GD_Y, TIP_PRESSURE} <= absolute
+
+
+def _has_digitizer(desc: ReportDescriptor) -> bool:
+    """Whether any input report sits in a digitizer (or Wacom digitizer) application.
+
+    Only where none does is a pen looked for in Mouse collections: Huion and
+    UC-Logic tablets also send a Mouse report with absolute X/Y and pressure
+    in their default mode, beside the pen report that counts.
+    """
+    return any(
+        r.application >> 16 in (DIG >> 16, WACOM_VENDOR_PAGE) for r in desc.input_reports.values()
+    )
+
+
+def report_kind(report: Report, pointer_pens: bool = False) -> str | None:
+    """ "pen", "touchscreen" or "touchpad" for a report that can carry contacts, else None.
+
+    `pointer_pens`: the descriptor has no digitizer report, so a Mouse
+    report with absolute X/Y and pressure is the pen (see _pen_in_pointer).
+    """
+    kind = APPLICATION_KIND.get(report.application)
+    if kind is None and pointer_pens and _pen_in_pointer(report):
+        return "pen"
+    return kind
+
+
 def _has_length(report: Report) -> bool:
     """Whether the report's X axis has a physical length (a size of its own)."""
     return any(
@@ -327,8 +374,9 @@ def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset(
     left out, as libinput leaves out a tablet without resolution).
     """
     reports = list(desc.input_reports.values())
-    kinds = {APPLICATION_KIND.get(r.application) for r in reports}
-    sized = {APPLICATION_KIND.get(r.application) for r in reports if _has_length(r)} - {None}
+    pointer_pens = not _has_digitizer(desc)
+    kinds = {report_kind(r, pointer_pens) for r in reports}
+    sized = {report_kind(r, pointer_pens) for r in reports if _has_length(r)} - {None}
     if sized and not pen_reports:
         kinds = sized
     if pen_reports & set(desc.input_reports):
