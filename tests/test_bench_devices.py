@@ -160,3 +160,25 @@ def test_a_folder_with_only_the_corpus_file_is_read_the_same(
     from_corpus = {r.slug: (r.verdict, r.surface_mm) for r in coverage_rows(tmp_path)}
     from_pairs = {r.slug: (r.verdict, r.surface_mm) for r in coverage_rows(pairs)}
     assert from_corpus == from_pairs and len(from_corpus) == 5
+
+
+def test_a_node_libinput_saw_only_as_a_touch_screen_is_checked_on_its_touch_contacts(
+    coverage_data: Path, tmp_path: Path
+) -> None:
+    """Acer Spin 5: pen and touch screen on one node; libinput saw the touch screen only."""
+    slug = "acer-spin-5-04f32560-1"
+    _copy(coverage_data, tmp_path, slug)
+    oracle = json.loads((tmp_path / f"{slug}.json").read_text())
+    oracle["libinput"] = [d for d in oracle["libinput"] if d["kind"] == "touchscreen"]
+    (tmp_path / f"{slug}.json").write_text(json.dumps(oracle))
+    (row,) = coverage_rows(tmp_path)  # 301 x 170: the kernel's rounding of 295 x 166
+    assert (row.kind, row.verdict, row.libinput_kind) == ("pen", "libinput wrong", "touchscreen")
+    assert "touchscreen only" in row.reason and "rounding" in row.reason
+    oracle["libinput"][0]["size_mm"] = [295.4, 166.2]  # as the touch report declares it
+    (tmp_path / f"{slug}.json").write_text(json.dumps(oracle))
+    (row,) = coverage_rows(tmp_path)
+    assert (row.verdict, row.libinput_kind) == ("match", "touchscreen")
+    oracle["libinput"][0]["size_mm"] = [250, 140]  # neither reading
+    (tmp_path / f"{slug}.json").write_text(json.dumps(oracle))
+    (row,) = coverage_rows(tmp_path)
+    assert row.verdict == "miss"

@@ -149,6 +149,32 @@ def _readings(
     return out
 
 
+def _other_kind(sized: list[dict[str, Any]], raw: bytes) -> tuple[dict[str, Any], str] | None:
+    """(libinput device, verdict) for a node libinput saw only as another kind.
+
+    A pen-and-touch node whose capture lists only the touch screen (or both
+    as touch screens) is checked on what libinput did see: stiction's finger
+    contacts against libinput's touch screen, as read ("match") or as the
+    kernel rounds them ("libinput wrong").
+    """
+    from stiction.bench._kernel_res import kernel_extent_mm
+    from stiction.drivers.hid.units import extent_m
+
+    for d in sized:
+        kind = d.get("kind")
+        if kind not in ("tablet", "touchscreen", "touchpad"):
+            continue
+        lib = (float(d["size_mm"][0]), float(d["size_mm"][1]))
+        for fx, fy in _contact_axes(raw, finger=kind != "tablet"):
+            w, h = extent_m(fx), extent_m(fy)
+            if w and h and sizes_match((w * 1000.0, h * 1000.0), lib):
+                return d, "match"
+            kw, kh = kernel_extent_mm(fx), kernel_extent_mm(fy)
+            if kw and kh and sizes_match((kw, kh), lib):
+                return d, "libinput wrong"
+    return None
+
+
 def _libinput_wrong(row: Row, raw: bytes) -> str | None:
     """Why libinput's size for this node cannot be the surface, or None if it may be."""
     lib, ours = row.libinput_mm, row.surface_mm
@@ -211,6 +237,16 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
         hit = next(
             (d for d in candidates if sizes_match(row.surface_mm, tuple(d["size_mm"]))), None
         )
+        if hit is None and not same and (other := _other_kind(sized, raw)) is not None:
+            d, verdict = other
+            row.libinput_mm = (float(d["size_mm"][0]), float(d["size_mm"][1]))
+            row.libinput_kind, row.verdict = d.get("kind"), verdict
+            row.reason = f"libinput lists this node as {d.get('kind')} only; " + (
+                "stiction's contacts of that kind match it"
+                if verdict == "match"
+                else "it is the kernel's rounding of stiction's contacts of that kind"
+            )
+            return
         if hit is not None:
             row.libinput_mm = (float(hit["size_mm"][0]), float(hit["size_mm"][1]))
             row.libinput_kind = hit.get("kind")
