@@ -182,3 +182,14 @@ def test_a_node_libinput_saw_only_as_a_touch_screen_is_checked_on_its_touch_cont
     (tmp_path / f"{slug}.json").write_text(json.dumps(oracle))
     (row,) = coverage_rows(tmp_path)
     assert row.verdict == "miss"
+
+
+def test_a_node_without_contacts_or_libinput_size_is_truthfully_no_surface(
+    hid_data: Path, tmp_path: Path
+) -> None:
+    shutil.copy(hid_data / "microsoft-keyboard-045e-0773.hid", tmp_path / "kbd-1.hid")
+    (tmp_path / "kbd-1.json").write_text(
+        json.dumps({"libinput": [{"kind": None, "size_mm": None}], "kernel_driver": "hid-generic"})
+    )
+    (row,) = coverage_rows(tmp_path)
+    assert (row.kind, row.verdict) == (None, "not a surface")

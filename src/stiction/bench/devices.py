@@ -272,6 +272,10 @@ def classify(row: Row, oracle: dict[str, Any], raw: bytes) -> None:
             row.verdict = "vendor-init"
             row.reason = "the tablet gives its size when opened (hid-uclogic does the same)"
         return
+    if row.kind is None and not sized:
+        row.verdict = "not a surface"
+        row.reason = "no contact report, and libinput has no size for this node either"
+        return
     if row.kind is None and sized and max(max(d["size_mm"]) for d in sized) < NOT_A_SURFACE_MM:
         row.verdict = "not a surface"
         row.reason = (
