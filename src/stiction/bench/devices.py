@@ -32,12 +32,14 @@ from collections import Counter
 from collections.abc import Iterator
 from contextlib import contextmanager
 from dataclasses import asdict, dataclass
+from functools import lru_cache
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from stiction.bench._support import results_dir, shared_data
 
 if TYPE_CHECKING:
+    from stiction.drivers.hid.descriptor import ReportDescriptor
     from stiction.drivers.hid.recording import Recording
 
 TOL_REL, TOL_MM = 0.02, 1.5
@@ -98,14 +100,27 @@ def _mm(size_m: tuple[float, float] | None) -> tuple[float, float] | None:
     return None if size_m is None else (size_m[0] * 1000.0, size_m[1] * 1000.0)
 
 
+@lru_cache(maxsize=512)
+def _parsed(raw: bytes) -> ReportDescriptor:
+    """One parse per descriptor for the benchmark's own readings (stiction's are its own)."""
+    from stiction.drivers.hid.descriptor import parse_descriptor
+
+    return parse_descriptor(raw)
+
+
+@lru_cache(maxsize=8)
+def _oracles(coverage: Path) -> tuple[tuple[str, dict[str, Any]], ...]:
+    """(slug, oracle) of a coverage folder, read once for all recordings."""
+    return tuple((slug, o) for slug, o, _ in _captures(coverage, None))
+
+
 def descriptor_only(raw: bytes, name: str) -> tuple[tuple[float, float] | None, str | None]:
     """What the descriptor alone gives: a surface in mm, or why not (no table entry)."""
-    from stiction.drivers.hid.descriptor import parse_descriptor
     from stiction.drivers.hid.stream import ReportStream
     from stiction.errors import StictionError
 
     try:
-        stream = ReportStream(parse_descriptor(raw), name or "device")
+        stream = ReportStream(_parsed(raw), name or "device")
     except StictionError as exc:
         return None, str(exc).split(": ", 1)[-1]
     return _mm(stream.surface_size), None
@@ -113,12 +128,11 @@ def descriptor_only(raw: bytes, name: str) -> tuple[tuple[float, float] | None, 
 
 def _contact_axes(raw: bytes, finger: bool) -> list[tuple[Any, Any]]:
     """(X field, Y field) of every contact of the wanted kind in the device's own descriptor."""
-    from stiction.drivers.hid.descriptor import parse_descriptor
     from stiction.drivers.hid.pen import build_mappings
     from stiction.errors import StictionError
 
     try:
-        desc = parse_descriptor(raw)
+        desc = _parsed(raw)
         mappings = build_mappings(desc, "device", size_m=(1.0, 1.0))
     except StictionError:
         return []
@@ -425,7 +439,7 @@ def _known_size(
     """
     words = _tokens(stem.replace("-", " ")) | _tokens(name)
     if coverage is not None:
-        for slug, o, _ in _captures(coverage, None):
+        for slug, o in _oracles(coverage):
             if f"{o.get('vid')}:{o.get('pid')}" != vid_pid or not _tokens(o["product"]) <= words:
                 continue
             for d in o["libinput"]:
