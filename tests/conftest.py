@@ -26,6 +26,7 @@ REPO = Path(__file__).resolve().parents[1]
 SHARED = REPO.parent / "shared"
 HID_DATA = SHARED / "data" / "hid"
 EVDEV_DATA = SHARED / "data" / "evdev"
+COVERAGE_DATA = SHARED / "data" / "coverage"
 
 
 @pytest.fixture(scope="session")
@@ -40,6 +41,15 @@ def evdev_data() -> Path:
     if not EVDEV_DATA.is_dir():
         pytest.fail(f"shared evdev data not found at {EVDEV_DATA}: clone shared/ beside the repo")
     return EVDEV_DATA
+
+
+@pytest.fixture(scope="session")
+def coverage_data() -> Path:
+    if not COVERAGE_DATA.is_dir():
+        pytest.fail(
+            f"shared coverage data not found at {COVERAGE_DATA}: clone shared/ beside the repo"
+        )
+    return COVERAGE_DATA
 
 
 def pytest_sessionstart(session: pytest.Session) -> None:

@@ -70,6 +70,13 @@ SMOKES = {
         True,
         frozenset({"bare", "raw", "daemon", "idle", "targets", "mode", "steal_pct"}),
     ),
+    "devices": Smoke(
+        ("--limit", "6"),
+        "devices",
+        False,
+        frozenset({"new", "descriptor_only", "by_driver", "by_kind", "devices", "recordings"}),
+        data="coverage_data",
+    ),
     "evdev": Smoke(
         ("--repeat", "1"),
         "evdev",

@@ -15,7 +15,7 @@ from collections import Counter
 from dataclasses import dataclass, replace
 
 from stiction.drivers.hid.decoder import ReportDecoder
-from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, ReportDescriptor
+from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, Report, ReportDescriptor
 from stiction.drivers.hid.units import degrees_per_logical, extent_m, unit_name
 from stiction.drivers.sample import PenSample, Tool
 from stiction.errors import DeviceError, SizeUnknown
@@ -173,10 +173,17 @@ def build_mappings(
     size and none is given.
     """
     mappings: dict[int, ReportMapping] = {}
+    unsized: list[tuple[str | None, DeviceError]] = []  # (kind, why) of reports left out
+    pointer_pens = not _has_digitizer(desc)
     for rid, report in desc.input_reports.items():
         page = report.application >> 16
-        if page not in (DIG >> 16, WACOM_VENDOR_PAGE) and rid not in pen_reports:
+        if (
+            page not in (DIG >> 16, WACOM_VENDOR_PAGE)
+            and rid not in pen_reports
+            and not (pointer_pens and _pen_in_pointer(report))
+        ):
             continue
+        skip = False
         decoder = ReportDecoder(report)
         groups = _first_fields(report.fields, decoder, aliases)
         group_usage = {
@@ -196,10 +203,11 @@ def build_mappings(
                 )
             w = _axis_size(fx, size_m[0] if size_m else None)
             h = _axis_size(fy, size_m[1] if size_m else None)
-            if w is None:
-                raise _size_error(device, fx, "X")
-            if h is None:
-                raise _size_error(device, fy, "Y")
+            if w is None or h is None:
+                why = _size_error(device, fx, "X") if w is None else _size_error(device, fy, "Y")
+                unsized.append((report_kind(report, pointer_pens), why))
+                skip = True
+                break
             finger = group_usage.get(gid) == DIG_FINGER or (
                 APPLICATION_KIND.get(report.application) in ("touchpad", "touchscreen")
                 and group_usage.get(gid) not in (DIG_STYLUS, DIG_PUCK)
@@ -227,7 +235,7 @@ def build_mappings(
                     tilt_y_deg=ty,
                 )
             )
-        if not contacts:
+        if skip or not contacts:
             continue
         count_el = next(
             (
@@ -239,12 +247,137 @@ def build_mappings(
             None,
         )
         mappings[rid] = ReportMapping(decoder, tuple(contacts), count_el)
-    return mappings
+    # A report without a size is left out only beside reports of another kind
+    # that have one: the kernel makes one input device per kind, and libinput
+    # drops a tablet without resolution while the node's touch screen works
+    # (Huion Kamvas 13's touch interface also declares the firmware pen in in^3).
+    kept = {report_kind(desc.input_reports[rid], pointer_pens) for rid in mappings}
+    for kind, why in unsized:
+        if not kept or kind in kept:
+            raise why
+    return mappings if size_m else _one_panel(mappings)
+
+
+def _xy_fields(m: ReportMapping, c: ContactLayout) -> tuple[Field, Field]:
+    fields = m.decoder.report.fields
+    return (
+        fields[m.decoder.elements[c.x.element].field_index],
+        fields[m.decoder.elements[c.y.element].field_index],
+    )
+
+
+def _numbers(f: Field) -> tuple[int, int, int, int]:
+    return f.logical_min, f.logical_max, f.physical_min, f.physical_max
+
+
+def _one_panel(mappings: dict[int, ReportMapping]) -> dict[int, ReportMapping]:
+    """A pen that repeats its touch screen's numbers in another unit takes the touch screen's size.
+
+    Built-in touch screens with a pen on one HID node (Goodix's USI-pen
+    firmware: 27c6:0e00 in hid-tools' tests, 27c6:0e51 in the Lenovo
+    Chromebook Duet 5) give the pen report the very logical and physical
+    numbers of the finger report, but in thousandths of an inch where the
+    fingers have tenths of a millimetre: read as written, the pen of a
+    13.3-inch screen covers 75 x 42 mm (and the kernel and libinput say so).
+    Identical numbers over the same glass cannot be two sizes; the finger
+    reading is the one that agrees with the screen (293.7 x 165.2 mm is a
+    13.3-inch 16:9 panel), so the pen takes it.
+    """
+    fingers = [(_xy_fields(m, c), c) for m in mappings.values() for c in m.contacts if c.finger]
+    if not fingers:
+        return mappings
+    out: dict[int, ReportMapping] = {}
+    for rid, m in mappings.items():
+        contacts = []
+        for c in m.contacts:
+            if not c.finger:
+                px, py = _xy_fields(m, c)
+                twin = next(
+                    (
+                        fc
+                        for (fx, fy), fc in fingers
+                        if _numbers(fx) == _numbers(px)
+                        and _numbers(fy) == _numbers(py)
+                        and (fx.unit, fx.unit_exponent) != (px.unit, px.unit_exponent)
+                    ),
+                    None,
+                )
+                if twin is not None:
+                    c = replace(
+                        c,
+                        x=replace(c.x, metres_per_unit=twin.x.metres_per_unit),
+                        y=replace(c.y, metres_per_unit=twin.y.metres_per_unit),
+                        width_m=twin.width_m,
+                        height_m=twin.height_m,
+                    )
+            contacts.append(c)
+        out[rid] = replace(m, contacts=tuple(contacts))
+    return out
+
+
+GD_POINTER, GD_MOUSE = 0x00010001, 0x00010002
+
+
+def _pen_in_pointer(report: Report) -> bool:
+    """A pen reported as a Mouse (or Pointer): absolute X and Y beside a Tip Pressure.
+
+    XP-Pen and UGEE firmware ("UGTABLET", the Deco 03's report 9) put the pen
+    in a Mouse application collection: absolute X/Y and Tip Pressure, the
+    tip on button 1. No mouse has a pressure axis and absolute coordinates
+    (virtual machines' absolute pointers have none); tablets that also have
+    a digitizer report are read from that one (see _has_digitizer).
+    """
+    if report.application not in (GD_POINTER, GD_MOUSE):
+        return False
+    absolute = {f.usage for f in report.fields if f.variable and not f.constant and not f.relative}
+    return {GD_X, GD_Y, TIP_PRESSURE} <= absolute
+
+
+def _has_digitizer(desc: ReportDescriptor) -> bool:
+    """Whether any input report sits in a digitizer (or Wacom digitizer) application.
+
+    Only where none does is a pen looked for in Mouse collections: Huion and
+    UC-Logic tablets also send a Mouse report with absolute X/Y and pressure
+    in their default mode, beside the pen report that counts.
+    """
+    return any(
+        r.application >> 16 in (DIG >> 16, WACOM_VENDOR_PAGE) for r in desc.input_reports.values()
+    )
+
+
+def report_kind(report: Report, pointer_pens: bool = False) -> str | None:
+    """ "pen", "touchscreen" or "touchpad" for a report that can carry contacts, else None.
+
+    `pointer_pens`: the descriptor has no digitizer report, so a Mouse
+    report with absolute X/Y and pressure is the pen (see _pen_in_pointer).
+    """
+    kind = APPLICATION_KIND.get(report.application)
+    if kind is None and pointer_pens and _pen_in_pointer(report):
+        return "pen"
+    return kind
+
+
+def _has_length(report: Report) -> bool:
+    """Whether the report's X axis has a physical length (a size of its own)."""
+    return any(
+        canonical_usage(f.usage) == GD_X and f.variable and extent_m(f) is not None
+        for f in report.fields
+    )
 
 
 def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset()) -> str:
-    """ "pen", "touchscreen", "touchpad" or "other", from the input reports' applications."""
-    kinds = {APPLICATION_KIND.get(r.application) for r in desc.input_reports.values()}
+    """ "pen", "touchscreen", "touchpad" or "other", from the input reports' applications.
+
+    Where some contact kinds have a size in the descriptor and others not,
+    the node is of a kind that has one (see build_mappings: the others are
+    left out, as libinput leaves out a tablet without resolution).
+    """
+    reports = list(desc.input_reports.values())
+    pointer_pens = not _has_digitizer(desc)
+    kinds = {report_kind(r, pointer_pens) for r in reports}
+    sized = {report_kind(r, pointer_pens) for r in reports if _has_length(r)} - {None}
+    if sized and not pen_reports:
+        kinds = sized
     if pen_reports & set(desc.input_reports):
         kinds.add("pen")
     for k in ("pen", "touchscreen", "touchpad"):

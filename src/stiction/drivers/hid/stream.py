@@ -85,11 +85,14 @@ class ReportStream:
         self.kind = device_kind(desc, pen_reports)
         self.stats: Counter[str] = Counter()
         self.tracker = ContactTracker(self.stats)
-        first = next(iter(self.mappings.values()), None)
+        # The surface is that of the device's kind: a node with a pen and a
+        # touch screen is a pen (device_kind), so its size is the pen's, even
+        # where the touch report comes first in the descriptor.
         self.surface_size: tuple[float, float] | None = None
-        if first is not None:
-            c = first.contacts[0]
-            self.surface_size = (c.width_m, c.height_m)
+        layouts = [c for m in self.mappings.values() for c in m.contacts]
+        own = [c for c in layouts if c.finger == (self.kind != "pen")] or layouts
+        if own:
+            self.surface_size = (own[0].width_m, own[0].height_m)
 
     def _bad(self, what: str, message: str) -> list[PenSample]:
         self.stats[what] += 1
