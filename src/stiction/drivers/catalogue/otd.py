@@ -25,6 +25,7 @@ Truthfulness rules, because one USB id is often shared by many models
   whose parameter block Linux's hid-uclogic parses from that answer.
 - A report family (families.py) is set only where `family_for` knows one
   for OpenTabletDriver's parser; the parser's name is kept as a fact.
+  Identifiers for Wacom's Windows driver are left out (`_linux_identifiers`).
 """
 
 from __future__ import annotations
@@ -111,19 +112,42 @@ def _entry(
     return out
 
 
+def _match_key(ident: Mapping[str, Any]) -> tuple[str, str, tuple[tuple[str, str], ...]]:
+    strings = tuple(sorted(ident["device_strings"].items(), key=lambda kv: int(kv[0])))
+    return ident["vid"], ident["pid"], strings
+
+
+def _linux_identifiers(idents: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """One model's identifiers without those for Wacom's Windows driver.
+
+    OpenTabletDriver lists many Wacom models twice on one id, told apart by
+    input report length: once with the tablet's own protocol parser
+    (Intuos3ReportParser, ...) and once with a ``WacomDriver...`` parser for
+    the reports as Wacom's own (Windows) driver passes them on. A Linux
+    hidraw node carries the tablet's own reports, so the second identifier
+    is dropped where the first exists; otherwise their parsers would
+    disagree and the model would lose its report family.
+    """
+    own = {_match_key(i) for i in idents if not i["report_parser"].startswith("WacomDriver")}
+    return [
+        i
+        for i in idents
+        if not (i["report_parser"].startswith("WacomDriver") and _match_key(i) in own)
+    ]
+
+
 def generate(data: Mapping[str, Any]) -> dict[str, object]:
     """The generated catalogue file's content (deterministic: same input, same output)."""
     origin = data["source"]
     by_id: dict[tuple[int, int], list[Record]] = defaultdict(list)
     for tablet in data["tablets"]:
-        for ident in tablet["identifiers"]:
+        for ident in _linux_identifiers(tablet["identifiers"]):
             by_id[(int(ident["vid"], 16), int(ident["pid"], 16))].append((tablet, ident))
     entries = []
     for (vid, pid), records in sorted(by_id.items()):
         by_strings: dict[tuple[tuple[str, str], ...], list[Record]] = defaultdict(list)
         for t, i in records:
-            key = tuple(sorted(i["device_strings"].items(), key=lambda kv: int(kv[0])))
-            by_strings[key].append((t, i))
+            by_strings[_match_key(i)[2]].append((t, i))
         needs_strings = any(by_strings.keys() - {()})
         common = _common(records, surface=not needs_strings)
         entries.append(_entry(vid, pid, (), records, common, origin))
