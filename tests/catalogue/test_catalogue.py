@@ -357,3 +357,18 @@ def test_evdev_hand_written_entries_match_by_name() -> None:
 def test_catalogue_lookup_is_empty_for_an_unknown_id() -> None:
     assert lookup(0x1234, 0x5678) is None
     assert all(e.match.vid != 0x1234 or e.match.pid != 0x5678 for e in catalogue())
+
+
+def test_the_entries_shown_in_the_docs_are_valid_catalogue_entries() -> None:
+    sys.path.insert(0, str(REPO / "tests" / "docs"))
+    from doc_blocks import parse_page  # type: ignore[import-not-found]
+
+    shown = [
+        b
+        for page in ("docs/devices.md", "docs/evdev.md")
+        for b in parse_page(REPO / page)
+        if b.kind == "toml" and "[[device]]" in b.text
+    ]
+    assert len(shown) >= 4
+    for block in shown:
+        assert load.parse_toml(block.text, block.id, "user"), block.id
