@@ -372,3 +372,24 @@ def test_the_entries_shown_in_the_docs_are_valid_catalogue_entries() -> None:
     assert len(shown) >= 4
     for block in shown:
         assert load.parse_toml(block.text, block.id, "user"), block.id
+
+
+def test_a_failing_generated_huion_init_falls_back_to_the_descriptor() -> None:
+    """256c:0064 asks for the Huion init only in OpenTabletDriver's facts: when the
+    USB read fails, the device is read as its descriptor says instead of refusing
+    to open; a hand-written init (256c:006d) still fails loudly."""
+    sys.path.insert(0, str(REPO / "tests" / "hid"))
+    from fake_huion_usb import HuionUsbBackend
+
+    from stiction.drivers.hid.hidraw_backend import _vendor_init
+
+    generated = hid_lookup(0x256C, 0x0064)
+    assert generated is not None and generated.init == "huion-string-descriptor"
+    assert generated.init_layer == "generated"
+    absent = HuionUsbBackend({}, present=False, pid=0x0064)
+    init = _vendor_init(None, generated, absent)
+    assert init.size_m is None and init.descriptor is None and init.fixup is None
+    written = hid_lookup(0x256C, 0x006D)
+    assert written is not None and written.init_layer == "builtin"
+    with pytest.raises(DeviceError, match="not found"):
+        _vendor_init(None, written, HuionUsbBackend({}, present=False))

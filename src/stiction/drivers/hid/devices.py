@@ -58,6 +58,9 @@ class DeviceEntry:
     """("feature" | "output", bytes) sent when opened live, after `init`."""
     parser: str | None = None
     """OpenTabletDriver's report parser for this device (a fact, not used to decode)."""
+    init_layer: str | None = None
+    """Which catalogue layer asked for `init`: a generated one is tried, and if
+    it fails the device is read as its descriptor describes it."""
 
     @property
     def size_over_descriptor(self) -> bool:
@@ -118,6 +121,7 @@ def from_resolved(r: Resolved) -> DeviceEntry:
         size_layer,
         tuple(init_reports),
         parser if isinstance(parser, str) else None,
+        r.origin["init"].layer if "init" in eff else None,
     )
 
 

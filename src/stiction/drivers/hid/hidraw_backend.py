@@ -148,14 +148,22 @@ def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init
         from stiction.drivers.hid import uclogic
         from stiction.drivers.hid.usb_init import huion_init
 
-        params = huion_init(entry.vid, entry.pid, backend=usb_backend)
-        log.info("%s: Huion parameters %s", entry.name, params)
-        result = _Init(
-            params.size_m,
-            uclogic.pen_descriptor(params),
-            uclogic.fixup(params),
-            uclogic.PROXIMITY_TIMEOUT_S if params.index == 200 else None,
-        )
+        try:
+            params = huion_init(entry.vid, entry.pid, backend=usb_backend)
+        except DeviceError as exc:
+            if entry.init_layer != "generated":
+                raise
+            # Only OpenTabletDriver's facts ask for it: a device that worked
+            # with its own descriptor before the catalogue still does.
+            log.warning("%s: %s; reading the device as its descriptor says", entry.name, exc)
+        else:
+            log.info("%s: Huion parameters %s", entry.name, params)
+            result = _Init(
+                params.size_m,
+                uclogic.pen_descriptor(params),
+                uclogic.fixup(params),
+                uclogic.PROXIMITY_TIMEOUT_S if params.index == 200 else None,
+            )
     elif entry.init is not None:
         kind, _, hexdata = entry.init.partition(":")
         _send_init(dev, entry, kind, bytes.fromhex(hexdata))
