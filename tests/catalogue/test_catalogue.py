@@ -393,3 +393,24 @@ def test_a_failing_generated_huion_init_falls_back_to_the_descriptor() -> None:
     assert written is not None and written.init_layer == "builtin"
     with pytest.raises(DeviceError, match="not found"):
         _vendor_init(None, written, HuionUsbBackend({}, present=False))
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "stiction", "hid", "describe", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_describe_takes_the_usb_strings_a_recording_lacks(hid_data: Path) -> None:
+    path = str(hid_data / "huion-inspiroy-2-s-pen.hid")
+    done = _cli(path, "--json", "--usb-string", "201=HUION_T21j_230101")
+    assert done.returncode == 0, done.stderr
+    device = json.loads(done.stdout)["device"]
+    assert (device["size_from"], device["catalogue"]) == ("catalogue", "Huion H641P")
+    text = _cli(path, "--usb-string", "201=HUION_T21j_230101")
+    assert "from the catalogue (Huion H641P)" in text.stdout
+    bad = _cli(path, "--usb-string", "two hundred")
+    assert bad.returncode == 2 and "INDEX=TEXT" in bad.stderr and "Traceback" not in bad.stderr
