@@ -414,3 +414,43 @@ def test_describe_takes_the_usb_strings_a_recording_lacks(hid_data: Path) -> Non
     assert "from the catalogue (Huion H641P)" in text.stdout
     bad = _cli(path, "--usb-string", "two hundred")
     assert bad.returncode == 2 and "INDEX=TEXT" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_evdev_kernel_resolution_wins_and_the_catalogue_fills_in_without_it(
+    evdev_data: Path,
+) -> None:
+    """UC-Logic WP5540U pen node (5543:0004): the kernel says 235 units/mm; with the
+    resolution gone (an old kernel), OpenTabletDriver's 139.7 x 101.6 mm applies."""
+    from stiction.drivers.evdev.recording import load as load_evdev
+
+    desc = load_evdev(evdev_data / "uc-logic-wp5540u-pen.evemu").description
+    x, y = desc.position_codes
+    assert sizes.apply(desc).axes[x].resolution == desc.axes[x].resolution == 235
+    entry = sizes.lookup(desc)
+    assert entry is not None and "OpenTabletDriver" in entry.source
+    old = sizes.apply(desc.with_resolution(0, 0))
+    width = (old.axes[x].maximum - old.axes[x].minimum) / old.axes[x].resolution
+    height = (old.axes[y].maximum - old.axes[y].minimum) / old.axes[y].resolution
+    assert (width, height) == pytest.approx((139.6873, 101.5873), abs=0.01)
+    # The kernel's own figure for this node is within 0.3 mm of OpenTabletDriver's.
+    kernel_w = (desc.axes[x].maximum - desc.axes[x].minimum) / 235
+    assert abs(kernel_w - width) < 0.3
+
+
+def test_every_entry_becomes_a_working_hid_entry() -> None:
+    """Each entry alone, as the HID path sees it: a family's generated descriptor
+    parses and gives a pen stream of the entry's size; every init report is hex."""
+    from stiction.drivers.catalogue.resolve import Resolved
+    from stiction.drivers.hid.devices import from_resolved
+
+    families = 0
+    for e in load.generated() + load.builtin():
+        entry = from_resolved(Resolved(e, e.effects, dict.fromkeys(e.effects, e), (e,)))
+        assert entry.name == e.name and entry.source == e.source
+        if entry.family is not None:
+            families += 1
+            assert entry.descriptor is not None and entry.size_m is not None
+            stream = ReportStream(parse_descriptor(entry.descriptor), e.name, None, entry)
+            assert stream.kind == "pen" and stream.size_from == "catalogue"
+            assert stream.surface_size == pytest.approx(entry.size_m, abs=1e-5)
+    assert families >= 60

@@ -22,6 +22,7 @@ from __future__ import annotations
 import logging
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
+from functools import cache
 
 from stiction.drivers.catalogue import load
 from stiction.drivers.catalogue.schema import LAYERS, Entry
@@ -93,16 +94,28 @@ def catalogue() -> tuple[Entry, ...]:
     return load.generated() + load.builtin() + load.user()
 
 
+@cache
+def _shipped() -> dict[tuple[int, int], tuple[Entry, ...]]:
+    """The generated and built-in entries by vid:pid (the user's file is read each time)."""
+    out: dict[tuple[int, int], list[Entry]] = {}
+    for e in load.generated() + load.builtin():
+        out.setdefault((e.match.vid, e.match.pid), []).append(e)
+    return {k: tuple(v) for k, v in out.items()}
+
+
+def for_id(vid: int, pid: int) -> tuple[Entry, ...]:
+    """The entries (any layer) whose id is vid:pid."""
+    user = tuple(e for e in load.user() if (e.match.vid, e.match.pid) == (vid, pid))
+    return _shipped().get((vid, pid), ()) + user
+
+
 def lookup(
     vid: int, pid: int, strings: Mapping[int, str] | None = None, name: str | None = None
 ) -> Resolved | None:
     """What the catalogue says about a device; None if nothing."""
-    return merge(catalogue(), vid, pid, strings, name)
+    return merge(for_id(vid, pid), vid, pid, strings, name)
 
 
 def string_indices(vid: int, pid: int) -> tuple[int, ...]:
     """The USB string indices some entry for this id matches on (what a live open reads)."""
-    return tuple(
-        sorted({i for e in catalogue() if (e.match.vid, e.match.pid) == (vid, pid)
-                for i, _ in e.match.strings})
-    )  # fmt: skip
+    return tuple(sorted({i for e in for_id(vid, pid) for i, _ in e.match.strings}))
