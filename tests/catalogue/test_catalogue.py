@@ -454,3 +454,25 @@ def test_every_entry_becomes_a_working_hid_entry() -> None:
             assert stream.kind == "pen" and stream.size_from == "catalogue"
             assert stream.surface_size == pytest.approx(entry.size_m, abs=1e-5)
     assert families >= 60
+
+
+def test_a_pen_family_stays_off_another_interface_of_the_same_id(hid_data: Path) -> None:
+    """Wacom PTZ-630 (Intuos3 6x8, 056a:00b1): its pen interface's descriptor
+    (linuxwacom/wacom-hid-descriptors, in shared/data/coverage) declares report 2 of
+    10 bytes, the length OpenTabletDriver matches; a touch interface sharing the id
+    (here a real touchpad descriptor given that id) keeps its own descriptor."""
+    pen = load_recording(REPO.parent / "shared/data/coverage/wacom-intuos3-6x8-056a00b1-1.hid")
+    facts = describe_device(pen.vid, pen.pid, pen.name, pen.descriptor)
+    assert (facts.kind, facts.size_from, facts.catalogue) == ("pen", "catalogue", "Wacom PTZ-630")
+    assert facts.surface_m == pytest.approx((0.2032, 0.1524))
+    entry = hid_lookup(pen.vid, pen.pid, descriptor=pen.descriptor)
+    assert entry is not None and entry.family == "wacom-intuos"
+    touch = load_recording(hid_data / "elan-04f3-3140-touchpad.hid").descriptor
+    other = describe_device(pen.vid, pen.pid, "Wacom touch", touch)
+    assert (other.kind, other.size_from, other.catalogue) == (
+        "touchpad",
+        "descriptor",
+        "Wacom PTZ-630",
+    )
+    off = hid_lookup(pen.vid, pen.pid, descriptor=touch)
+    assert off is not None and off.family is None and off.descriptor is None

@@ -24,7 +24,11 @@ Truthfulness rules, because one USB id is often shared by many models
   Huion's (256c) or UC-Logic's (5543) vendor id; those are the vendors
   whose parameter block Linux's hid-uclogic parses from that answer.
 - A report family (families.py) is set only where `family_for` knows one
-  for OpenTabletDriver's parser; the parser's name is kept as a fact.
+  for OpenTabletDriver's parser; the parser's name is kept as a fact, and
+  so is the input report length OpenTabletDriver matches the interface by
+  (`report_length`): the HID path uses a family only on the interface whose
+  own descriptor has an input report that long, not on a touch interface
+  sharing the id.
   Identifiers for Wacom's Windows driver are left out (`_linux_identifiers`).
 """
 
@@ -53,6 +57,7 @@ def _effects(tablet: Mapping[str, Any], ident: Mapping[str, Any]) -> dict[str, o
         "max_y": tablet["max_y"],
         "max_pressure": tablet["max_pressure"],
         "parser": ident["report_parser"],
+        "report_length": ident["input_report_length"],
         "init_strings": list(ident["init_strings"]),
         "feature_init": list(ident["feature_init_reports"]),
         "output_init": list(ident["output_init_reports"]),

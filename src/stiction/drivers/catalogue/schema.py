@@ -30,6 +30,7 @@ EFFECT_KEYS = frozenset(
         "feature_init",
         "output_init",
         "parser",
+        "report_length",
         "models",
         "pen_reports",
         "usage_aliases",
@@ -190,7 +191,7 @@ def check_effects(eff: Mapping[str, object], where: str) -> None:
     for key in ("size_mm", "resolution_mm"):
         if key in eff:
             _pair(eff[key], key, where)
-    for key in ("max_x", "max_y", "max_pressure"):
+    for key in ("max_x", "max_y", "max_pressure", "report_length"):
         if key in eff:
             _positive_int(eff[key], key, where)
     for key in ("feature_init", "output_init"):

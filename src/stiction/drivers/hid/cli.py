@@ -122,7 +122,8 @@ def _decode(args: argparse.Namespace) -> int:
     decoders = {rid: ReportDecoder(r) for rid, r in desc.input_reports.items()}
     stream: ReportStream | None
     try:
-        stream = ReportStream(desc, rec.name or args.file, args.size, lookup(rec.vid, rec.pid))
+        entry = lookup(rec.vid, rec.pid, descriptor=rec.descriptor)
+        stream = ReportStream(desc, rec.name or args.file, args.size, entry)
     except StictionError as exc:
         print(f'stiction: warning: {exc}; printing "contacts": null', file=sys.stderr)
         stream = None

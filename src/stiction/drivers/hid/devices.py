@@ -72,9 +72,37 @@ def _pair_m(v: object) -> tuple[float, float]:
     return float(v[0]) / 1000.0, float(v[1]) / 1000.0
 
 
-def from_resolved(r: Resolved) -> DeviceEntry:
-    """The HID view of what the catalogue says about one device."""
-    eff = r.effects
+def family_fits(eff: Mapping[str, object], own: bytes) -> bool:
+    """True if a family with this `report_length` is about the interface with descriptor `own`.
+
+    A tablet's pen and touch interfaces share its vid:pid; OpenTabletDriver
+    tells them apart by input report length (report ID byte included, as
+    hidraw delivers reports), so a family goes only where the device's own
+    descriptor declares an input report that long. An unparsable descriptor
+    keeps the family (it may be why the entry exists).
+    """
+    from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.errors import DescriptorError
+
+    length = eff.get("report_length")
+    if "family" not in eff or not isinstance(length, int):
+        return True
+    try:
+        reports = parse_descriptor(own).input_reports.values()
+    except DescriptorError:
+        return True
+    return any(rep.byte_size == length for rep in reports)
+
+
+def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
+    """The HID view of what the catalogue says about one device.
+
+    `own`: the interface's own report descriptor, where known; a family whose
+    report length it does not declare is left out (see `family_fits`).
+    """
+    eff = dict(r.effects)
+    if own is not None and not family_fits(eff, own):
+        eff.pop("family", None)
     size_m = _pair_m(eff["size_mm"]) if "size_mm" in eff else None
     size_layer = r.origin["size_mm"].layer if "size_mm" in eff else None
     family = eff.get("family")
@@ -153,12 +181,19 @@ def user_table() -> dict[tuple[int, int], DeviceEntry]:
 
 
 def lookup(
-    vid: int, pid: int, strings: Mapping[int, str] | None = None, name: str | None = None
+    vid: int,
+    pid: int,
+    strings: Mapping[int, str] | None = None,
+    name: str | None = None,
+    *,
+    descriptor: bytes | None = None,
 ) -> DeviceEntry | None:
     """What the catalogue says about a device (the user's overlay first); None if nothing.
 
     `strings` are the USB string descriptors read from a live device (index
-    -> text); without them only entries that need none apply.
+    -> text); without them only entries that need none apply. `descriptor`,
+    the interface's own report descriptor, keeps a pen family off the
+    tablet's other interfaces.
     """
     r = catalogue_lookup(vid, pid, strings, name)
-    return from_resolved(r) if r is not None else None
+    return from_resolved(r, descriptor) if r is not None else None

@@ -258,8 +258,8 @@ def open_hidraw(
     dev = open_handle(path)
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
-        entry = lookup(vid, pid, _usb_strings(vid, pid, usb_backend))
         own = read_descriptor(dev, path)
+        entry = lookup(vid, pid, _usb_strings(vid, pid, usb_backend), descriptor=own)
         raw = entry.descriptor if entry and entry.descriptor else own
         init = _vendor_init(dev, entry, usb_backend)
         desc = parse_descriptor(init.descriptor or raw)
