@@ -476,3 +476,26 @@ def test_a_pen_family_stays_off_another_interface_of_the_same_id(hid_data: Path)
     )
     off = hid_lookup(pen.vid, pen.pid, descriptor=touch)
     assert off is not None and off.family is None and off.descriptor is None
+
+
+def test_hid_devices_match_by_their_product_name(
+    hid_data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """UGEE M708 v2 (28bd:0907) is "10 inch PenTablet" in its recording."""
+    table = tmp_path / "mine.toml"
+    table.write_text(
+        '[[device]]\nmatch = { id = "28bd:0907", name = "^10 inch PenTablet$" }\n'
+        'name = "M708 by name"\nsource = "my ruler"\nsize_mm = [250, 150]\n'
+        '[[device]]\nmatch = { id = "28bd:0907", name = "Artist" }\n'
+        'name = "not this one"\nsource = "my ruler"\nsize_mm = [100, 100]\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    rec = load_recording(hid_data / "ugee-m708-v2.hid")
+    d = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    assert (d.size_from, d.catalogue) == ("config", "M708 by name")
+    assert d.surface_m == pytest.approx((0.25, 0.15))
+    from stiction.drivers.hid.playback import open_replay
+
+    assert open_replay(hid_data / "ugee-m708-v2.hid").surface_size == pytest.approx((0.25, 0.15))
+    other = describe_device(rec.vid, rec.pid, "another tablet", rec.descriptor)
+    assert (other.size_from, other.catalogue) == ("descriptor", "XP-Pen Star 03")

@@ -122,7 +122,7 @@ def _decode(args: argparse.Namespace) -> int:
     decoders = {rid: ReportDecoder(r) for rid, r in desc.input_reports.items()}
     stream: ReportStream | None
     try:
-        entry = lookup(rec.vid, rec.pid, descriptor=rec.descriptor)
+        entry = lookup(rec.vid, rec.pid, None, rec.name or None, descriptor=rec.descriptor)
         stream = ReportStream(desc, rec.name or args.file, args.size, entry)
     except StictionError as exc:
         print(f'stiction: warning: {exc}; printing "contacts": null', file=sys.stderr)

@@ -69,7 +69,7 @@ def describe_device(
     device); a recording has none, so only catalogue entries that need no
     strings apply.
     """
-    entry: DeviceEntry | None = lookup(vid, pid, strings, descriptor=raw)
+    entry: DeviceEntry | None = lookup(vid, pid, strings, name or None, descriptor=raw)
     catalogue = entry.name if entry is not None else None
     desc: ReportDescriptor = parse_descriptor(
         entry.descriptor if entry and entry.descriptor else raw

@@ -259,7 +259,9 @@ def open_hidraw(
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
         own = read_descriptor(dev, path)
-        entry = lookup(vid, pid, _usb_strings(vid, pid, usb_backend), descriptor=own)
+        entry = lookup(
+            vid, pid, _usb_strings(vid, pid, usb_backend), product or None, descriptor=own
+        )
         raw = entry.descriptor if entry and entry.descriptor else own
         init = _vendor_init(dev, entry, usb_backend)
         desc = parse_descriptor(init.descriptor or raw)
