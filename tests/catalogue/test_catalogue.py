@@ -246,7 +246,7 @@ def test_bad_entries_are_refused_with_the_reason(text: str, message: str) -> Non
 
 def test_the_descriptor_wins_over_a_generated_size_that_disagrees(hid_data: Path) -> None:
     """5543:004d is the Yiynova MVP20U+RH in this recording and
-    the XP-Pen Artist 16 in OpenTabletDriver: a vendor id reused across products.
+    the XP-Pen Artist 16 in OpenTabletDriver: one USB id reused across products.
     The descriptor is this unit's own statement, so it wins."""
     rec = load_recording(hid_data / "yiynova-mvp20u-rh.hid")
     entry = hid_lookup(rec.vid, rec.pid)
