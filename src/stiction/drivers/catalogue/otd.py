@@ -98,15 +98,18 @@ def _entry(
     records: list[Record],
     effects: dict[str, object],
     origin: Mapping[str, str],
+    unsure: bool = False,
 ) -> dict[str, object]:
+    """One entry; `unsure`: an id-only entry of an id whose models need strings to
+    be told apart, so its name must not claim the model."""
     names = _names(records)
     ident = f"{vid:04x}:{pid:04x}"
-    if len(names) == 1:
-        name = names[0]
-    elif len(names) <= 3:
-        name = " / ".join(names)
-    else:
+    if len(names) > 3:
         name = f"{ident}: one of {len(names)} models"
+    elif unsure:
+        name = f"{ident}: {' or '.join(names)}, or another model with this id"
+    else:
+        name = " / ".join(names)
     match: dict[str, object] = {"id": ident}
     if strings:
         match["strings"] = dict(strings)
@@ -155,7 +158,7 @@ def generate(data: Mapping[str, Any]) -> dict[str, object]:
             by_strings[_match_key(i)[2]].append((t, i))
         needs_strings = any(by_strings.keys() - {()})
         common = _common(records, surface=not needs_strings)
-        entries.append(_entry(vid, pid, (), records, common, origin))
+        entries.append(_entry(vid, pid, (), records, common, origin, needs_strings))
         for strings, group in sorted(by_strings.items()):
             if strings:
                 entries.append(_entry(vid, pid, strings, group, _common(group, True), origin))
