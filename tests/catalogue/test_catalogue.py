@@ -499,3 +499,17 @@ def test_hid_devices_match_by_their_product_name(
     assert open_replay(hid_data / "ugee-m708-v2.hid").surface_size == pytest.approx((0.25, 0.15))
     other = describe_device(rec.vid, rec.pid, "another tablet", rec.descriptor)
     assert (other.size_from, other.catalogue) == ("descriptor", "XP-Pen Star 03")
+
+
+def test_the_users_overlay_sizes_an_evdev_node(tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    keys = {ecodes.BTN_TOOL_FINGER, ecodes.BTN_TOUCH}
+    node = _node("Acme Pad Finger", keys, 0x1234, 0x0001)
+    assert sizes.lookup(node) is None
+    table = tmp_path / "mine.toml"
+    table.write_text(
+        '[[device]]\nmatch = { id = "1234:0001", name = "Finger$" }\n'
+        'source = "my ruler"\nsize_mm = [152, 95]\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    fixed = sizes.apply(node)
+    assert fixed.axes[ecodes.ABS_X].resolution == pytest.approx(100.0)

@@ -29,7 +29,8 @@ Truthfulness rules, because one USB id is often shared by many models
   (`report_length`): the HID path uses a family only on the interface whose
   own descriptor has an input report that long, not on a touch interface
   sharing the id.
-  Identifiers for Wacom's Windows driver are left out (`_linux_identifiers`).
+  Identifiers for Wacom's Windows driver are left out (`_linux_identifiers`),
+  and so are `aux_identifiers` (a tablet's buttons interface, no pen).
 """
 
 from __future__ import annotations
