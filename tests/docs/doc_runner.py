@@ -53,7 +53,7 @@ def loopback_up() -> None:
 def prepare(scratch: Path) -> dict[str, str]:
     """(Re)build the scratch folder a reader's checkout would be; return the environment."""
     scratch.mkdir(parents=True, exist_ok=True)
-    for name in ("src", "clients", "bench", "docs", "udev"):
+    for name in ("src", "clients", "bench", "docs", "udev", "tools"):
         link = scratch / name
         if not link.exists():
             link.symlink_to(REPO / name)

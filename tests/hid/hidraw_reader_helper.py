@@ -1,14 +1,15 @@
 """Runs inside umockdev-run: the production hidraw backend reads a mocked node.
 
 Usage: python hidraw_reader_helper.py DEVICE N_REPORTS [--discover] [--until-error]
-       [--huion-usb[=v1:X,Y,P,LPI]] [--usb-id=VVVV:PPPP]
+       [--huion-usb[=v1:X,Y,P,LPI]] [--usb-id=VVVV:PPPP] [--usb-string=INDEX:TEXT ...]
 Prints one JSON line per PenSample, then a final {"stats": ...} line.
 Stops once the backend has fed N_REPORTS reports (waiting on the source's
 counters with a short timeout per check, never a fixed sleep), or when the
 device errors. With --until-error it prints {"reached": N} at that point and
 keeps reading until the device fails (the unplug test). With --huion-usb
 the USB side of the Huion initialisation is the pyusb backend object of
-fake_huion_usb.py (umockdev mocks hidraw here, not usbdevfs).
+fake_huion_usb.py (umockdev mocks hidraw here, not usbdevfs); --usb-string
+adds a USB string descriptor that object answers (for catalogue matches).
 """
 
 from __future__ import annotations
@@ -43,6 +44,15 @@ def main() -> int:
                 backend = HuionUsbBackend({100: v1_answer(x, y, p, lpi)}, vid=vid, pid=pid)
             else:
                 backend = HuionUsbBackend({200: V2}, vid=vid, pid=pid)
+    strings = [a.partition("=")[2] for a in sys.argv if a.startswith("--usb-string=")]
+    if strings:
+        from fake_huion_usb import HuionUsbBackend, string_descriptor
+
+        answers = {} if backend is None else dict(backend.strings)
+        for spec in strings:
+            index, _, text = spec.partition(":")
+            answers[int(index)] = string_descriptor(text.encode("utf-16-le"))
+        backend = HuionUsbBackend(answers, vid=vid, pid=pid)
     try:
         src = open_hidraw(device, usb_backend=backend)
     except DeviceError as exc:

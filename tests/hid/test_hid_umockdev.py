@@ -278,6 +278,31 @@ def test_output_report_init_from_a_user_table(
     assert lines[-1]["error"] is None
 
 
+def test_a_live_open_matches_catalogue_entries_by_usb_string(
+    tmp_path: Path, hid_data: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """An entry that needs USB string 201 applies live: the backend reads the string
+    through pyusb, the entry's output report is sent, and only then (umockdev's
+    script) do the reports come. Without the string read and matched, none would."""
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    reports = [ev.data for ev in rec.events[:40]]
+    switch = bytes.fromhex("02b00400000000000000")
+    files = write_mock(
+        tmp_path, rec.name, rec.vid, rec.pid, rec.descriptor, reports, expect_writes=[switch]
+    )
+    table = tmp_path / "hid-devices.toml"
+    table.write_text(
+        f'[[device]]\nmatch = {{ id = "{rec.vid:04x}:{rec.pid:04x}", '
+        'strings = { 201 = "^TEST_FW_\\\\d+$" } }\n'
+        f'init = "output:{switch.hex()}"\nsource = "test"\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    usb_id = f"--usb-id={rec.vid:04x}:{rec.pid:04x}"
+    lines = _run(tmp_path, files, len(reports), usb_id, "--usb-string=201:TEST_FW_42")
+    assert lines[-1]["stats"]["reports"] == len(reports)
+    assert lines[-1]["error"] is None
+
+
 def test_failing_feature_report_init_is_a_clear_error(
     tmp_path: Path, hid_data: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:

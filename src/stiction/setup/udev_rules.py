@@ -9,7 +9,7 @@ any process of any user would be a privacy leak.
 What gets the tag:
 
 - the hidraw nodes of every device in the HID device table
-  (stiction/drivers/hid/devices.toml), matched on the parent HID device's
+  (stiction/drivers/catalogue/devices.toml), matched on the parent HID device's
   kernel name ``BBBB:VVVV:PPPP.NNNN``. That name carries the ids whatever the
   bus, so one rule covers USB, Bluetooth (0005) and I2C-HID (0018), where
   ``ATTRS{idVendor}`` would exist only for USB;

@@ -2,7 +2,9 @@
 
 1. a size the user configured (``size_mm``): they measured their device;
 2. the kernel's ``absinfo.resolution`` on the position axes;
-3. the device table, ``sizes.toml`` beside this module (quirks as data).
+3. the device catalogue (stiction.drivers.catalogue): hand-written entries
+   matched by vid:pid and node name, and OpenTabletDriver's pen areas for pen
+   nodes (docs/devices.md).
 
 A device with none of these has no surface size: the driver refuses to guess
 and raises a DeviceError naming the device and how to configure it.
@@ -10,14 +12,11 @@ and raises a DeviceError naming the device and how to configure it.
 
 from __future__ import annotations
 
-import functools
-import tomllib
 from dataclasses import dataclass
-from importlib import resources
-from typing import Any
 
+from stiction.drivers.catalogue.resolve import lookup as catalogue_lookup
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.errors import DeviceError, SizeUnknown, StictionError
+from stiction.errors import DeviceError, SizeUnknown
 
 
 @dataclass(frozen=True)
@@ -30,45 +29,39 @@ class SizeEntry:
     source: str
 
 
-def _pair(entry: dict[str, Any], key: str) -> tuple[float, float] | None:
-    v = entry.get(key)
-    if v is None:
+def _pair(v: object) -> tuple[float, float] | None:
+    if not isinstance(v, list):
         return None
-    if (
-        not isinstance(v, list)
-        or len(v) != 2
-        or not all(isinstance(x, int | float) and x > 0 for x in v)
-    ):
-        raise StictionError(f"sizes.toml: {key} must be two positive numbers, got {v!r}")
     return float(v[0]), float(v[1])
 
 
-@functools.cache
-def table() -> tuple[SizeEntry, ...]:
-    text = resources.files("stiction.drivers.evdev").joinpath("sizes.toml").read_text("utf-8")
-    data = tomllib.loads(text)
-    out = []
-    for e in data.get("device", []):
-        out.append(
-            SizeEntry(
-                int(e["vendor"]),
-                int(e["product"]),
-                e.get("name"),
-                _pair(e, "resolution_mm"),
-                _pair(e, "size_mm"),
-                str(e.get("source", "")),
-            )
-        )
-    return tuple(out)
-
-
 def lookup(desc: DeviceDescription) -> SizeEntry | None:
-    for e in table():
-        if (e.vendor, e.product) == (desc.vendor, desc.product) and (
-            e.name is None or e.name in desc.name
-        ):
-            return e
-    return None
+    """The catalogue's size for this node, matched by vid:pid and the node's name.
+
+    Generated (OpenTabletDriver) sizes are a tablet's pen area, so they
+    apply to pen nodes only; hand-written entries name the node they are for.
+    """
+    r = catalogue_lookup(desc.vendor, desc.product, None, desc.name)
+    if r is None:
+        return None
+    eff = {
+        k: v
+        for k, v in r.effects.items()
+        if k in ("size_mm", "resolution_mm")
+        and (r.origin[k].layer != "generated" or desc.kind == "pen")
+    }
+    if not eff:
+        return None
+    key = "resolution_mm" if "resolution_mm" in eff else "size_mm"
+    origin = r.origin[key]
+    return SizeEntry(
+        desc.vendor,
+        desc.product,
+        origin.match.name,
+        _pair(eff.get("resolution_mm")),
+        _pair(eff.get("size_mm")) if key == "size_mm" else None,
+        origin.source,
+    )
 
 
 def _with_size(desc: DeviceDescription, w_mm: float, h_mm: float) -> DeviceDescription:

@@ -16,6 +16,20 @@ def _size_m(text: str) -> tuple[float, float]:
     return w / 1000.0, h / 1000.0
 
 
+def _usb_string(text: str) -> tuple[int, str]:
+    """INDEX=TEXT: a USB string descriptor the recording does not hold, for catalogue matches."""
+    index, sep, value = text.partition("=")
+    try:
+        i = int(index)
+    except ValueError:
+        i = -1
+    if not sep or not 0 <= i <= 255:
+        raise argparse.ArgumentTypeError(
+            f"{text!r}: give a USB string as INDEX=TEXT, INDEX 0..255 (e.g. 201=HUION_T194_230101)"
+        )
+    return i, value
+
+
 def _json_int(v: int) -> int | str:
     """Values beyond 64 bits (vendor blobs read as one field) print as hex strings."""
     return v if -(1 << 63) <= v < (1 << 64) else hex(v)
@@ -53,7 +67,8 @@ def _describe(args: argparse.Namespace) -> int:
     rec = load_recording(args.file)
     desc = parse_descriptor(rec.descriptor)
     reports = sorted(desc.input_reports.values(), key=lambda r: r.report_id)
-    facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    strings = dict(args.usb_string) if args.usb_string else None
+    facts = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor, strings=strings)
     if args.json:
         out = {
             "device": facts.as_json(),
@@ -101,7 +116,8 @@ def _decode(args: argparse.Namespace) -> int:
     decoders = {rid: ReportDecoder(r) for rid, r in desc.input_reports.items()}
     stream: ReportStream | None
     try:
-        stream = ReportStream(desc, rec.name or args.file, args.size, lookup(rec.vid, rec.pid))
+        entry = lookup(rec.vid, rec.pid, None, rec.name or None, descriptor=rec.descriptor)
+        stream = ReportStream(desc, rec.name or args.file, args.size, entry)
     except StictionError as exc:
         if isinstance(exc, SizeUnknown):
             exc = exc.told(SIZE_MM_FLAG)
@@ -211,6 +227,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     d = hsub.add_parser("describe", help="the fields of every input report of a .hid file")
     d.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")
     d.add_argument("--json", action="store_true", help="machine-readable output")
+    d.add_argument(
+        "--usb-string",
+        type=_usb_string,
+        action="append",
+        metavar="INDEX=TEXT",
+        help="a USB string descriptor of the device (`lsusb -v`), so that catalogue entries "
+        "telling models apart by it apply; repeatable",
+    )
     d.set_defaults(func=_describe)
     e = hsub.add_parser("decode", help="decode every recorded report of a .hid file")
     e.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")

@@ -1,25 +1,37 @@
-"""The device table (devices.toml beside this file): quirks as data, like libinput's.
+"""What the HID path takes from the device catalogue (stiction.drivers.catalogue).
 
-Adding a device means adding a [[device]] table with its source; no code
-changes. The file is validated as a whole on load, so a typo in it is a
-clear error naming the entry, not a device that silently misbehaves.
+The catalogue holds the facts; this module turns what applies to one
+device into a `DeviceEntry`, the form ReportStream, the hidraw backend and
+`hid describe` use. The user's overlay (``hid-devices.toml``) is part of the
+catalogue, with today's format (a top-level ``id``) still accepted.
 """
 
 from __future__ import annotations
 
-import os
-import tomllib
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
-from importlib import resources
-from pathlib import Path
 
-from stiction.drivers.hid.families import FAMILIES, Geometry
+from stiction.drivers.catalogue import load
+from stiction.drivers.catalogue.load import USER_TABLE_ENV, user_table_path
+from stiction.drivers.catalogue.resolve import Resolved, merge
+from stiction.drivers.catalogue.resolve import lookup as catalogue_lookup
+from stiction.drivers.catalogue.schema import INIT_KINDS, REPORT_FIXUPS, Entry
+from stiction.drivers.hid.families import Geometry
 from stiction.drivers.hid.families import descriptor as family_descriptor
-from stiction.errors import DeviceError
 
-INIT_KINDS = ("huion-string-descriptor", "feature:", "output:")
-REPORT_FIXUPS = ("uclogic-v1", "uclogic-v2")
+__all__ = [
+    "INIT_KINDS",
+    "REPORT_FIXUPS",
+    "USER_TABLE_ENV",
+    "DeviceEntry",
+    "builtin_table",
+    "from_resolved",
+    "lookup",
+    "parse_table",
+    "user_table",
+    "user_table_path",
+]
 
 
 @dataclass(frozen=True, slots=True)
@@ -38,160 +50,150 @@ class DeviceEntry:
     """A vendor report family (families.py): its reports are read by that family's
     fix-up into the normalised report that `descriptor` (generated) describes."""
     geometry: Geometry | None = None
+    size_layer: str | None = None
+    """Which catalogue layer gave `size_m`: "user", "builtin" or "generated".
+    A generated (OpenTabletDriver) size only fills in for a descriptor without
+    one; a hand-written or user size wins over the descriptor (docs/devices.md)."""
+    init_reports: tuple[tuple[str, bytes], ...] = ()
+    """("feature" | "output", bytes) sent when opened live, after `init`."""
+    parser: str | None = None
+    """OpenTabletDriver's report parser for this device (a fact, not used to decode)."""
+    init_layer: str | None = None
+    """Which catalogue layer asked for `init`: a generated one is tried, and if
+    it fails the device is read as its descriptor describes it."""
+
+    @property
+    def size_over_descriptor(self) -> bool:
+        return self.size_layer in ("user", "builtin")
 
 
-def _int(text: str, where: str) -> int:
+def _pair_m(v: object) -> tuple[float, float]:
+    assert isinstance(v, list)
+    return float(v[0]) / 1000.0, float(v[1]) / 1000.0
+
+
+def family_fits(eff: Mapping[str, object], own: bytes) -> bool:
+    """True if a family with this `report_length` is about the interface with descriptor `own`.
+
+    A tablet's pen and touch interfaces share its vid:pid; OpenTabletDriver
+    tells them apart by input report length (report ID byte included, as
+    hidraw delivers reports), so a family goes only where the device's own
+    descriptor declares an input report that long. An unparsable descriptor
+    keeps the family (it may be why the entry exists).
+    """
+    from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.errors import DescriptorError
+
+    length = eff.get("report_length")
+    if "family" not in eff or not isinstance(length, int):
+        return True
     try:
-        return int(text, 16)
-    except ValueError:
-        raise DeviceError(f"{where}: {text!r} is not a hex number") from None
+        reports = parse_descriptor(own).input_reports.values()
+    except DescriptorError:
+        return True
+    return any(rep.byte_size == length for rep in reports)
 
 
-def _entry(raw: dict[str, object], where: str) -> DeviceEntry:
-    ident = raw.get("id")
-    if not isinstance(ident, str) or ident.count(":") != 1:
-        raise DeviceError(f"{where}: 'id' must be \"vvvv:pppp\"")
-    vid_s, pid_s = ident.split(":")
-    vid, pid = _int(vid_s, where), _int(pid_s, where)
-    where = f"{where} ({ident})"
-    name, source = raw.get("name", ident), raw.get("source")
-    if not isinstance(name, str) or not isinstance(source, str) or not source:
-        raise DeviceError(f"{where}: 'name' and a non-empty 'source' are required")
-    init = raw.get("init")
-    if init is not None and (
-        not isinstance(init, str) or not any(init.startswith(k) for k in INIT_KINDS)
-    ):
-        raise DeviceError(f"{where}: unknown init {init!r}; known: {', '.join(INIT_KINDS)}")
-    size_m = None
-    if "size_mm" in raw:
-        size = raw["size_mm"]
-        if (
-            not isinstance(size, list)
-            or len(size) != 2
-            or not all(isinstance(v, int | float) and v > 0 for v in size)
-        ):
-            raise DeviceError(f"{where}: 'size_mm' must be [width, height], both > 0")
-        size_m = (float(size[0]) / 1000.0, float(size[1]) / 1000.0)
-    pen_reports = raw.get("pen_reports", [])
-    if not isinstance(pen_reports, list) or not all(
-        isinstance(r, int) and 0 <= r <= 255 for r in pen_reports
-    ):
-        raise DeviceError(f"{where}: 'pen_reports' must be a list of report IDs")
-    aliases_raw = raw.get("usage_aliases", {})
-    if not isinstance(aliases_raw, dict):
-        raise DeviceError(f"{where}: 'usage_aliases' must be a table")
-    aliases = {_int(str(k), where): _int(str(v), where) for k, v in aliases_raw.items()}
-    report_fixup = raw.get("report_fixup")
-    if report_fixup is not None and report_fixup not in REPORT_FIXUPS:
-        raise DeviceError(
-            f"{where}: unknown report_fixup {report_fixup!r}; known: {', '.join(REPORT_FIXUPS)}"
+def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
+    """The HID view of what the catalogue says about one device.
+
+    `own`: the interface's own report descriptor, where known; a family whose
+    report length it does not declare is left out (see `family_fits`).
+    """
+    eff = dict(r.effects)
+    if own is not None and not family_fits(eff, own):
+        eff.pop("family", None)
+    size_m = _pair_m(eff["size_mm"]) if "size_mm" in eff else None
+    size_layer = r.origin["size_mm"].layer if "size_mm" in eff else None
+    family = eff.get("family")
+    geometry = None
+    descriptor = bytes.fromhex(str(eff["descriptor"])) if "descriptor" in eff else None
+    if isinstance(family, str) and size_m is not None:
+        geometry = Geometry(
+            int(eff["max_x"]),  # type: ignore[call-overload]
+            int(eff["max_y"]),  # type: ignore[call-overload]
+            int(eff["max_pressure"]),  # type: ignore[call-overload]
+            size_m[0] * 1000.0,
+            size_m[1] * 1000.0,
+            r.origin["family"].source,
         )
-    desc = raw.get("descriptor")
-    descriptor = None
-    if desc is not None:
-        if not isinstance(desc, str):
-            raise DeviceError(f"{where}: 'descriptor' must be a hex string")
-        try:
-            descriptor = bytes.fromhex(desc)
-        except ValueError:
-            raise DeviceError(f"{where}: 'descriptor' is not hex") from None
-    family, geometry = _family(raw, size_m, where)
-    if geometry is not None:
         descriptor = family_descriptor(geometry)
+        size_layer = r.origin["family"].layer
+    pen_reports = eff.get("pen_reports", [])
+    aliases = eff.get("usage_aliases", {})
+    assert isinstance(pen_reports, list) and isinstance(aliases, dict)
+    init_reports: list[tuple[str, bytes]] = []
+    # Init reports switch a tablet into a vendor mode; stiction sends them only
+    # where it reads that mode (a family) or where a hand-written entry says so.
+    if geometry is not None:
+        for kind in ("feature", "output"):
+            reports = eff.get(f"{kind}_init", [])
+            assert isinstance(reports, list)
+            init_reports += [(kind, bytes.fromhex(h)) for h in reports]
+    init = eff.get("init")
+    fixup = eff.get("report_fixup")
+    parser = eff.get("parser")
     return DeviceEntry(
-        vid,
-        pid,
-        name,
-        source,
-        init,
+        r.entry.match.vid,
+        r.entry.match.pid,
+        r.entry.name,
+        r.source,
+        init if isinstance(init, str) else None,
         size_m,
-        frozenset(pen_reports),
-        aliases,
+        frozenset(int(x) for x in pen_reports),
+        {int(str(k), 16): int(str(v), 16) for k, v in aliases.items()},
         descriptor,
-        report_fixup if isinstance(report_fixup, str) else None,
-        family,
+        fixup if isinstance(fixup, str) else None,
+        family if isinstance(family, str) else None,
         geometry,
+        size_layer,
+        tuple(init_reports),
+        parser if isinstance(parser, str) else None,
+        r.origin["init"].layer if "init" in eff else None,
     )
 
 
-def _family(
-    raw: dict[str, object], size_m: tuple[float, float] | None, where: str
-) -> tuple[str | None, Geometry | None]:
-    """`family` with the ranges its reports do not declare: max_x, max_y, max_pressure, size_mm."""
-    family = raw.get("family")
-    if family is None:
-        return None, None
-    if not isinstance(family, str) or family not in FAMILIES:
-        raise DeviceError(f"{where}: unknown family {family!r}; known: {', '.join(FAMILIES)}")
-    ranges = []
-    for key in ("max_x", "max_y", "max_pressure"):
-        v = raw.get(key)
-        if not isinstance(v, int) or isinstance(v, bool) or not 0 < v < 1 << 31:
-            raise DeviceError(f"{where}: family {family!r} needs '{key}', a positive integer")
-        ranges.append(v)
-    if size_m is None:
-        raise DeviceError(f"{where}: family {family!r} needs 'size_mm' = [width, height]")
-    source = raw.get("source")
-    geom = Geometry(
-        ranges[0], ranges[1], ranges[2], size_m[0] * 1000.0, size_m[1] * 1000.0, str(source)
-    )
-    return family, geom
+def _table(entries: tuple[Entry, ...]) -> dict[tuple[int, int], DeviceEntry]:
+    """Entries matched by vid:pid alone, keyed by it (what a udev rule can name)."""
+    out = {}
+    for e in entries:
+        if e.match.specificity == 0:
+            r = merge([e], e.match.vid, e.match.pid)
+            assert r is not None
+            out[(e.match.vid, e.match.pid)] = from_resolved(r)
+    return out
 
 
 def parse_table(text: str, where: str = "devices.toml") -> dict[tuple[int, int], DeviceEntry]:
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"{where}: {exc}") from None
-    table: dict[tuple[int, int], DeviceEntry] = {}
-    devices = data.get("device", [])
-    if not isinstance(devices, list):
-        raise DeviceError(f"{where}: expected [[device]] tables")
-    for i, raw in enumerate(devices):
-        if not isinstance(raw, dict):
-            raise DeviceError(f"{where}: device {i + 1} is not a table")
-        entry = _entry(raw, f"{where}: device {i + 1}")
-        key = (entry.vid, entry.pid)
-        if key in table:
-            raise DeviceError(f"{where}: {entry.vid:04x}:{entry.pid:04x} is listed twice")
-        table[key] = entry
-    return table
+    """A table in the catalogue's schema, validated; its vid:pid entries by id."""
+    return _table(load.parse_toml(text, where, "user"))
 
 
 @cache
 def builtin_table() -> dict[tuple[int, int], DeviceEntry]:
-    text = resources.files("stiction.drivers.hid").joinpath("devices.toml").read_text("utf-8")
-    return parse_table(text, str(Path(__file__).with_name("devices.toml")))
-
-
-USER_TABLE_ENV = "STICTION_HID_DEVICES"
-
-
-def user_table_path() -> Path:
-    """Where a user's own entries live: $STICTION_HID_DEVICES, else the XDG config dir."""
-    env = os.environ.get(USER_TABLE_ENV)
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
-    return Path(base) / "stiction" / "hid-devices.toml"
+    """The hand-written vid:pid entries stiction ships (the udev rules list these ids)."""
+    return _table(load.builtin())
 
 
 def user_table() -> dict[tuple[int, int], DeviceEntry]:
-    """The user's entries (same format), read on every lookup so edits apply at once.
+    """The user's vid:pid entries, read on every call so edits apply at once."""
+    return _table(load.user())
 
-    Like libinput's local quirks: a device can be made to work without
-    touching the installed package; an entry here replaces the built-in one.
+
+def lookup(
+    vid: int,
+    pid: int,
+    strings: Mapping[int, str] | None = None,
+    name: str | None = None,
+    *,
+    descriptor: bytes | None = None,
+) -> DeviceEntry | None:
+    """What the catalogue says about a device (the user's overlay first); None if nothing.
+
+    `strings` are the USB string descriptors read from a live device (index
+    -> text); without them only entries that need none apply. `descriptor`,
+    the interface's own report descriptor, keeps a pen family off the
+    tablet's other interfaces.
     """
-    path = user_table_path()
-    try:
-        text = path.read_text("utf-8")
-    except FileNotFoundError:
-        return {}
-    except OSError as exc:
-        raise DeviceError(f"cannot read the device table {path}: {exc}") from None
-    return parse_table(text, str(path))
-
-
-def lookup(vid: int, pid: int) -> DeviceEntry | None:
-    """The entry for a device: the user's table first, then the built-in one."""
-    return user_table().get((vid, pid)) or builtin_table().get((vid, pid))
+    r = catalogue_lookup(vid, pid, strings, name)
+    return from_resolved(r, descriptor) if r is not None else None

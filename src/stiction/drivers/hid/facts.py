@@ -2,19 +2,21 @@
 
 `stiction hid describe` prints these facts so that a user can see, before
 plugging anything into the daemon, whether a tablet will give contacts and,
-if not, what is missing and how to give it. The precedence is ReportStream's:
-the user's own device table (config) over the built-in table (catalogue) over
-the descriptor. The table wins over the descriptor because an entry with a
-size exists only where the descriptor's own size is known to be wrong (the
-VEIKK S640's physical maxima, Huion's in^3 units).
+if not, what is missing and how to give it. The precedence is ReportStream's
+(docs/devices.md): the user's overlay (config) and hand-written catalogue
+entries win over the descriptor, because such an entry with a size exists
+only where the descriptor's own size is known to be wrong (the VEIKK S640's
+physical maxima, Huion's in^3 units); a generated (OpenTabletDriver) size
+only fills in where the descriptor gives none.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 from stiction.drivers.hid.descriptor import ReportDescriptor, parse_descriptor
-from stiction.drivers.hid.devices import DeviceEntry, builtin_table, user_table
+from stiction.drivers.hid.devices import DeviceEntry, lookup
 from stiction.drivers.hid.pen import device_kind
 from stiction.drivers.hid.stream import ReportStream
 from stiction.errors import StictionError
@@ -53,10 +55,21 @@ class DeviceFacts:
         return f"device: {self.kind}, {size}, read through {self.backend}"
 
 
-def describe_device(vid: int, pid: int, name: str, raw: bytes) -> DeviceFacts:
-    """The facts for a device with this id and report descriptor (as a recording holds them)."""
-    user = user_table().get((vid, pid))
-    entry: DeviceEntry | None = user or builtin_table().get((vid, pid))
+def describe_device(
+    vid: int,
+    pid: int,
+    name: str,
+    raw: bytes,
+    *,
+    strings: Mapping[int, str] | None = None,
+) -> DeviceFacts:
+    """The facts for a device with this id and report descriptor (as a recording holds them).
+
+    `strings`: USB string descriptors (index -> text) where known (a live
+    device); a recording has none, so only catalogue entries that need no
+    strings apply.
+    """
+    entry: DeviceEntry | None = lookup(vid, pid, strings, name or None, descriptor=raw)
     catalogue = entry.name if entry is not None else None
     desc: ReportDescriptor = parse_descriptor(
         entry.descriptor if entry and entry.descriptor else raw
@@ -72,8 +85,7 @@ def describe_device(vid: int, pid: int, name: str, raw: bytes) -> DeviceFacts:
         if vendor_init:  # the size comes from the tablet's string descriptor when opened
             return DeviceFacts(kind, None, "vendor-init", catalogue, "hidraw", None)
         return DeviceFacts(kind, None, None, catalogue, "hidraw", str(exc).split(": ", 1)[-1])
-    if entry is not None and (entry.size_m is not None or entry.geometry is not None):
-        size_from = "config" if user is not None else "catalogue"
-    else:
-        size_from = "descriptor"
+    size_from = stream.size_from
+    if size_from == "catalogue" and entry is not None and entry.size_layer == "user":
+        size_from = "config"
     return DeviceFacts(kind, stream.surface_size, size_from, catalogue, "hidraw", None)

@@ -124,24 +124,8 @@ class _Init:
     proximity_timeout: float | None = None
 
 
-def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init:
-    """Run the table's initialisation for this device."""
-    if entry is None or entry.init is None:
-        return _Init()
-    if entry.init == "huion-string-descriptor":
-        from stiction.drivers.hid import uclogic
-        from stiction.drivers.hid.usb_init import huion_init
-
-        params = huion_init(entry.vid, entry.pid, backend=usb_backend)
-        log.info("%s: Huion parameters %s", entry.name, params)
-        return _Init(
-            params.size_m,
-            uclogic.pen_descriptor(params),
-            uclogic.fixup(params),
-            uclogic.PROXIMITY_TIMEOUT_S if params.index == 200 else None,
-        )
-    kind, _, hexdata = entry.init.partition(":")
-    data = bytes.fromhex(hexdata)
+def _send_init(dev: Any, entry: DeviceEntry, kind: str, data: bytes) -> None:
+    """Send one feature or output report; DeviceError naming the entry if refused."""
     try:
         # hidapi reports failure by returning -1 (and sometimes by raising)
         sent = dev.send_feature_report(data) if kind == "feature" else dev.write(data)
@@ -150,10 +134,62 @@ def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init
         sent, reason = -1, str(exc)
     if sent < 0:
         raise DeviceError(
-            f"{entry.name}: vendor initialisation ({entry.init}) failed: "
+            f"{entry.name}: vendor initialisation ({kind}:{data.hex()}) failed: "
             f"{reason or 'the device refused the report'}"
         )
-    return _Init()
+
+
+def _vendor_init(dev: Any, entry: DeviceEntry | None, usb_backend: Any) -> _Init:
+    """Run the catalogue's initialisation for this device: `init`, then its init reports."""
+    if entry is None:
+        return _Init()
+    result = _Init()
+    if entry.init == "huion-string-descriptor":
+        from stiction.drivers.hid import uclogic
+        from stiction.drivers.hid.usb_init import huion_init
+
+        try:
+            params = huion_init(entry.vid, entry.pid, backend=usb_backend)
+        except DeviceError as exc:
+            if entry.init_layer != "generated":
+                raise
+            # Only OpenTabletDriver's facts ask for it: a device that worked
+            # with its own descriptor before the catalogue still does.
+            log.warning("%s: %s; reading the device as its descriptor says", entry.name, exc)
+        else:
+            log.info("%s: Huion parameters %s", entry.name, params)
+            result = _Init(
+                params.size_m,
+                uclogic.pen_descriptor(params),
+                uclogic.fixup(params),
+                uclogic.PROXIMITY_TIMEOUT_S if params.index == 200 else None,
+            )
+    elif entry.init is not None:
+        kind, _, hexdata = entry.init.partition(":")
+        _send_init(dev, entry, kind, bytes.fromhex(hexdata))
+    for kind, data in entry.init_reports:
+        _send_init(dev, entry, kind, data)
+    return result
+
+
+def _usb_strings(vid: int, pid: int, usb_backend: Any) -> dict[int, str] | None:
+    """The USB strings the catalogue matches this id on, read live; None if none or unreadable.
+
+    Unreadable strings are not an error: the device then gets what the
+    catalogue says about its id alone, as a recording does.
+    """
+    from stiction.drivers.catalogue.resolve import string_indices
+
+    indices = string_indices(vid, pid)
+    if not indices:
+        return None
+    from stiction.drivers.hid.usb_init import read_strings
+
+    try:
+        return read_strings(vid, pid, indices, backend=usb_backend)
+    except (DeviceError, OSError, ValueError) as exc:  # pyusb's USBError is an OSError
+        log.info("%04x:%04x: USB strings not read (%s); matching by id alone", vid, pid, exc)
+        return None
 
 
 class HidrawReader:
@@ -222,8 +258,10 @@ def open_hidraw(
     dev = open_handle(path)
     try:
         label = f"{product or 'hid device'} ({vid:04x}:{pid:04x}, {path.decode(errors='replace')})"
-        entry = lookup(vid, pid)
         own = read_descriptor(dev, path)
+        entry = lookup(
+            vid, pid, _usb_strings(vid, pid, usb_backend), product or None, descriptor=own
+        )
         raw = entry.descriptor if entry and entry.descriptor else own
         init = _vendor_init(dev, entry, usb_backend)
         desc = parse_descriptor(init.descriptor or raw)

@@ -22,7 +22,7 @@ def open_replay(
     descriptor (a vendor report family's generated one, say) and its size.
     """
     rec = load_recording(path)
-    entry = lookup(rec.vid, rec.pid)
+    entry = lookup(rec.vid, rec.pid, None, rec.name or None, descriptor=rec.descriptor)
     label = f"{rec.name or Path(path).name} ({rec.vid:04x}:{rec.pid:04x}, {path})"
     stream = ReportStream(parse_descriptor(rec.descriptor), label, size_m, entry)
     events = [(ev.t, ev.data) for ev in rec.events]

@@ -41,7 +41,11 @@ class ReportStream:
         fixup: Callable[[bytes], bytes | None] | None = None,
         proximity_timeout: float | None = None,
     ) -> None:
-        """`size_m` (the user's) wins over the device table's size, which wins over none.
+        """`size_m` (the user's) wins over the catalogue's and the descriptor's size.
+
+        A hand-written catalogue size wins over the descriptor's (such an entry
+        exists because the descriptor is wrong); a generated one is used only
+        where the descriptor gives no physical size (docs/devices.md).
 
         `fixup` rewrites each raw report before decoding (vendor formats the
         descriptor cannot express); returning None drops the report as ignored.
@@ -69,8 +73,21 @@ class ReportStream:
         self.device = device
         pen_reports = entry.pen_reports if entry else frozenset()
         aliases = entry.usage_aliases if entry else None
-        if size_m is None and entry is not None:
-            size_m = entry.size_m
+        self.size_from = "given" if size_m is not None else "descriptor"
+        """Where the surface size came from: "given" (the caller's), "catalogue", "descriptor"."""
+        if size_m is None and entry is not None and entry.geometry is not None:
+            self.size_from = "catalogue"  # the family's generated descriptor declares it
+        if size_m is None and entry is not None and entry.size_m is not None:
+            if entry.size_over_descriptor:
+                size_m, self.size_from = entry.size_m, "catalogue"
+            else:
+                # A generated (OpenTabletDriver) size only fills in for a
+                # descriptor that gives none: the descriptor is this unit's own
+                # statement, the catalogue a model's that may share its id.
+                try:
+                    build_mappings(desc, device, None, pen_reports, aliases)
+                except DeviceError:
+                    size_m, self.size_from = entry.size_m, "catalogue"
         self.mappings = build_mappings(desc, device, size_m, pen_reports, aliases)
         if not self.mappings:
             apps = sorted({f"0x{r.application:08x}" for r in desc.input_reports.values()})

@@ -19,6 +19,7 @@ Both layouts were checked against the kernel source, not against a device.
 
 from __future__ import annotations
 
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -94,6 +95,41 @@ def _read_string_descriptor(dev: Any, index: int) -> bytes | None:
     return bytes(data)
 
 
+def _find(vid: int, pid: int, backend: Any, why: str) -> Any:
+    import usb.core
+
+    try:
+        dev = usb.core.find(idVendor=vid, idProduct=pid, backend=backend)
+    except usb.core.NoBackendError:
+        raise DeviceError(f"pyusb found no libusb backend: install libusb-1.0 {why}") from None
+    if dev is None:
+        raise DeviceError(
+            f"USB device {vid:04x}:{pid:04x} not found {why} "
+            "(is it plugged in, and does the udev rule give you access to /dev/bus/usb?)"
+        )
+    return dev
+
+
+def decode_string(raw: bytes) -> str:
+    """The text of a string descriptor: UTF-16LE after the 2-byte header, NULs kept.
+
+    NULs are kept because OpenTabletDriver's string patterns expect them
+    (e.g. ``^HA60\\x00*$`` for firmware that pads its name).
+    """
+    return raw[2 : raw[0] if raw else 0].decode("utf-16-le", errors="replace")
+
+
+def read_strings(vid: int, pid: int, indices: Iterable[int], backend: Any = None) -> dict[int, str]:
+    """USB string descriptors by index (those the device has), for the catalogue's matches."""
+    dev = _find(vid, pid, backend, "to read the tablet's USB strings")
+    out = {}
+    for index in indices:
+        raw = _read_string_descriptor(dev, index)
+        if raw is not None and len(raw) >= 2:
+            out[index] = decode_string(raw)
+    return out
+
+
 def huion_init(vid: int, pid: int, backend: Any = None) -> HuionParams:
     """Find the tablet with pyusb, read string 200 (else 100), return its parameters.
 
@@ -101,19 +137,7 @@ def huion_init(vid: int, pid: int, backend: Any = None) -> HuionParams:
     libusb. The tablet stays bound to its kernel driver: a control transfer
     on endpoint 0 needs no interface claim.
     """
-    import usb.core
-
-    try:
-        dev = usb.core.find(idVendor=vid, idProduct=pid, backend=backend)
-    except usb.core.NoBackendError:
-        raise DeviceError(
-            "pyusb found no libusb backend: install libusb-1.0 to initialise Huion tablets"
-        ) from None
-    if dev is None:
-        raise DeviceError(
-            f"USB device {vid:04x}:{pid:04x} not found for the Huion initialisation "
-            "(is it plugged in, and does the udev rule give you access to /dev/bus/usb?)"
-        )
+    dev = _find(vid, pid, backend, "for the Huion initialisation")
     problems = []
     for index in (200, 100):
         raw = _read_string_descriptor(dev, index)

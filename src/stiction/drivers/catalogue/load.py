@@ -1,0 +1,100 @@
+"""Reading the catalogue's files: generated (OpenTabletDriver), built-in (hand-written), user.
+
+The generated and built-in files ship inside this package; the user's
+overlay is today's ``hid-devices.toml`` (``$STICTION_HID_DEVICES``, else
+``$XDG_CONFIG_HOME/stiction/hid-devices.toml``), read on every lookup so an
+edit applies at once, as libinput reads its local quirks.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import tomllib
+from functools import cache
+from importlib import resources
+from pathlib import Path
+
+from stiction.drivers.catalogue.schema import Entry, Match, parse_entry
+from stiction.errors import DeviceError
+
+GENERATED = "otd.json"
+BUILTIN = "devices.toml"
+USER_TABLE_ENV = "STICTION_HID_DEVICES"
+
+
+def parse_entries(devices: object, where: str, layer: str) -> tuple[Entry, ...]:
+    """Validated entries; a DeviceError if two of them claim the same match."""
+    if not isinstance(devices, list):
+        raise DeviceError(f"{where}: expected [[device]] tables")
+    seen: dict[Match, Entry] = {}
+    out = []
+    for i, raw in enumerate(devices):
+        entry = parse_entry(raw, f"{where}: device {i + 1}", layer)
+        other = seen.get(entry.match)
+        if other is not None:
+            raise DeviceError(
+                f"{where}: {entry.match.describe()} is listed twice "
+                f"({other.name!r} and {entry.name!r})"
+            )
+        seen[entry.match] = entry
+        out.append(entry)
+    return tuple(out)
+
+
+def parse_toml(text: str, where: str, layer: str) -> tuple[Entry, ...]:
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise DeviceError(f"{where}: {exc}") from None
+    return parse_entries(data.get("device", []), where, layer)
+
+
+def parse_json(text: str, where: str, layer: str) -> tuple[Entry, ...]:
+    try:
+        data = json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise DeviceError(f"{where}: {exc}") from None
+    if not isinstance(data, dict):
+        raise DeviceError(f"{where}: expected an object with a 'device' list")
+    return parse_entries(data.get("device", []), where, layer)
+
+
+def _package_file(name: str) -> tuple[str, str]:
+    text = resources.files("stiction.drivers.catalogue").joinpath(name).read_text("utf-8")
+    return text, str(Path(__file__).with_name(name))
+
+
+@cache
+def generated() -> tuple[Entry, ...]:
+    """The entries generated from OpenTabletDriver's configurations (tools/gen_catalogue.py)."""
+    text, where = _package_file(GENERATED)
+    return parse_json(text, where, "generated")
+
+
+@cache
+def builtin() -> tuple[Entry, ...]:
+    """The hand-written entries shipped with stiction (HID and evdev quirks)."""
+    text, where = _package_file(BUILTIN)
+    return parse_toml(text, where, "builtin")
+
+
+def user_table_path() -> Path:
+    """Where a user's own entries live: $STICTION_HID_DEVICES, else the XDG config dir."""
+    env = os.environ.get(USER_TABLE_ENV)
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
+    return Path(base) / "stiction" / "hid-devices.toml"
+
+
+def user() -> tuple[Entry, ...]:
+    """The user's overlay (same schema), read on every call; () when there is none."""
+    path = user_table_path()
+    try:
+        text = path.read_text("utf-8")
+    except FileNotFoundError:
+        return ()
+    except OSError as exc:
+        raise DeviceError(f"cannot read the device table {path}: {exc}") from None
+    return parse_toml(text, str(path), "user")

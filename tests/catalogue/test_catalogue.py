@@ -1,0 +1,515 @@
+"""The device catalogue: every entry, the generator, specificity, precedence, both paths.
+
+Facts come from ../shared/data/tablets/otd-tablets.json (OpenTabletDriver's
+configurations) and the recordings in ../shared/data/hid.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+from collections import Counter, defaultdict
+from pathlib import Path
+
+import pytest
+from evdev import ecodes
+
+from stiction.drivers.catalogue import load
+from stiction.drivers.catalogue.resolve import catalogue, lookup, merge
+from stiction.drivers.catalogue.schema import SIZE_KEYS, parse_entry
+from stiction.drivers.evdev import sizes
+from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
+from stiction.drivers.hid.descriptor import parse_descriptor
+from stiction.drivers.hid.devices import lookup as hid_lookup
+from stiction.drivers.hid.facts import describe_device
+from stiction.drivers.hid.recording import load_recording
+from stiction.drivers.hid.stream import ReportStream
+from stiction.errors import DeviceError
+
+REPO = Path(__file__).resolve().parents[2]
+FACTS = REPO.parent / "shared" / "data" / "tablets" / "otd-tablets.json"
+
+
+@pytest.fixture(scope="module")
+def facts() -> dict[str, object]:
+    if not FACTS.is_file():
+        pytest.fail(f"OpenTabletDriver facts not found at {FACTS}: clone shared/ beside the repo")
+    return dict(json.loads(FACTS.read_text("utf-8")))
+
+
+def _ident(vid: str, pid: str) -> tuple[int, int]:
+    return int(vid, 16), int(pid, 16)
+
+
+# --- every entry -------------------------------------------------------------
+
+
+def test_every_entry_loads_and_names_its_source() -> None:
+    gen, hand = load.generated(), load.builtin()
+    assert len(gen) > 300 and len(hand) >= 9
+    for e in gen + hand:
+        assert e.source.strip() and e.name.strip(), e
+    commit = "ada667ba1527869834b143aa0bf4c32ba6dee836"
+    assert all(commit in e.source and "Configurations/" in e.source for e in gen)
+
+
+def test_generated_sources_name_real_configuration_files(facts: dict[str, object]) -> None:
+    files = {t["file"] for t in facts["tablets"]}  # type: ignore[attr-defined]
+    for e in load.generated():
+        named = e.source.split("Configurations/Configurations/", 1)[1].strip("{}").split(", ")
+        assert named and set(named) <= files, e.source
+
+
+def test_no_two_entries_of_one_file_claim_the_same_match() -> None:
+    for entries in (load.generated(), load.builtin()):
+        counts = Counter(e.match for e in entries)
+        assert [m for m, n in counts.items() if n > 1] == []
+
+
+def test_a_hand_written_entry_sharing_a_generated_match_is_a_layer_above_it() -> None:
+    """The only repeated matches in the whole catalogue are hand-written over generated."""
+    by_match = defaultdict(list)
+    for e in load.generated() + load.builtin():
+        by_match[e.match].append(e.layer)
+    repeated = {m: layers for m, layers in by_match.items() if len(layers) > 1}
+    assert repeated  # e.g. 256c:006d: the Huion initialisation written by hand
+    assert all(sorted(layers) == ["builtin", "generated"] for layers in repeated.values())
+
+
+def test_every_opentabletdriver_model_is_in_the_catalogue(facts: dict[str, object]) -> None:
+    named: set[str] = set()
+    for e in load.generated():
+        named.add(e.name)
+        named.update(e.effects.get("models", []))  # type: ignore[arg-type]
+    models = {t["name"] for t in facts["tablets"]}  # type: ignore[attr-defined]
+    assert models - named == set()
+
+
+def test_a_shared_id_never_carries_one_models_size(facts: dict[str, object]) -> None:
+    """An entry matching by vid:pid alone has a size only if every model on that id
+    is recognised by the id alone and all of them agree on it."""
+    per_id: dict[tuple[int, int], list[tuple[object, object]]] = defaultdict(list)
+    for t in facts["tablets"]:  # type: ignore[attr-defined]
+        for i in t["identifiers"]:
+            per_id[_ident(i["vid"], i["pid"])].append(
+                (bool(i["device_strings"]), (t["width_mm"], t["height_mm"]))
+            )
+    checked = 0
+    for e in load.generated():
+        if e.match.specificity or "size_mm" not in e.effects:
+            continue
+        records = per_id[(e.match.vid, e.match.pid)]
+        assert not any(needs for needs, _ in records), e.name
+        assert {size for _, size in records} == {tuple(e.effects["size_mm"])}, e.name  # type: ignore[arg-type]
+        checked += 1
+    assert checked > 100
+    shared = load.generated()
+    huion = next(e for e in shared if e.match.id == "256c:006d" and not e.match.strings)
+    assert not set(huion.effects) & set(SIZE_KEYS)
+    assert len(huion.effects["models"]) > 50  # type: ignore[arg-type]
+
+
+def test_models_sharing_a_string_match_keep_only_what_they_agree_on() -> None:
+    (both,) = [
+        e
+        for e in load.generated()
+        if e.match.id == "256c:006e" and dict(e.match.strings).get(201) == r"HUION_T153_\d{6}$"
+    ]
+    assert both.effects["models"] == ["Huion WH1409", "Huion WH1409 V2 (Variant 2)"]
+    assert "size_mm" not in both.effects  # 350 x 218 and 350.52 x 219.06 mm
+    assert both.effects["init"] == "huion-string-descriptor"
+
+
+# --- the generator -------------------------------------------------------------
+
+
+def test_the_committed_generated_file_is_current() -> None:
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "gen_catalogue.py"), str(FACTS), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "current" in done.stdout
+
+
+def test_the_check_notices_changed_facts(tmp_path: Path, facts: dict[str, object]) -> None:
+    changed = json.loads(json.dumps(facts))
+    changed["tablets"][0]["width_mm"] += 1
+    path = tmp_path / "facts.json"
+    path.write_text(json.dumps(changed))
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "gen_catalogue.py"), str(path), "--check"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 1 and "stale" in done.stdout
+
+
+def test_the_generator_says_so_when_the_facts_are_missing(tmp_path: Path) -> None:
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "gen_catalogue.py"), str(tmp_path / "no.json")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 2 and "cannot read" in done.stderr
+    assert "Traceback" not in done.stderr
+
+
+# --- matching ------------------------------------------------------------------
+
+
+def _e(match: dict[str, object], layer: str = "builtin", **effects: object):  # type: ignore[no-untyped-def]
+    return parse_entry(
+        {"match": match, "name": str(match), "source": "test", **effects}, "t", layer
+    )
+
+
+def test_string_match_beats_the_id_alone_and_adds_to_it() -> None:
+    general = _e({"id": "1234:0001"}, init="huion-string-descriptor")
+    model = _e({"id": "1234:0001", "strings": {"201": "^M1_"}}, size_mm=[100, 50])
+    r = merge([model, general], 0x1234, 1, {201: "M1_0001"})
+    assert r is not None and r.entry is model
+    assert r.effects == {"init": "huion-string-descriptor", "size_mm": [100, 50]}
+    assert r.origin["init"] is general
+    other = merge([model, general], 0x1234, 1, {201: "M2_0001"})
+    assert other is not None and other.entry is general and "size_mm" not in other.effects
+    unknown = merge([model, general], 0x1234, 1, None)  # a recording: no strings
+    assert unknown is not None and unknown.entry is general
+
+
+def test_two_equally_specific_matches_are_ambiguous_and_neither_is_used() -> None:
+    a = _e({"id": "1234:0001", "strings": {"201": "^M"}}, size_mm=[100, 50])
+    b = _e({"id": "1234:0001", "strings": {"6": "Tab"}}, size_mm=[200, 90])
+    base = _e({"id": "1234:0001"}, parser="P")
+    r = merge([a, b, base], 0x1234, 1, {201: "M1", 6: "Tablet"})
+    assert r is not None and r.entry is base and "size_mm" not in r.effects
+    assert merge([a, b], 0x1234, 1, {201: "M1", 6: "Tablet"}) is None
+    only_a = merge([a, b, base], 0x1234, 1, {201: "M1", 6: "Pad"})
+    assert only_a is not None and only_a.effects["size_mm"] == [100, 50]
+
+
+def test_name_match_and_hand_written_over_generated() -> None:
+    gen = _e({"id": "1234:0001"}, "generated", size_mm=[100, 50], parser="P")
+    hand = _e({"id": "1234:0001"}, "builtin", size_mm=[101, 51])
+    finger = _e({"id": "1234:0001", "name": "Finger$"}, "builtin", size_mm=[90, 40])
+    r = merge([finger, hand, gen], 0x1234, 1, None, "Tablet Finger")
+    assert r is not None and r.effects["size_mm"] == [90, 40] and r.effects["parser"] == "P"
+    pen = merge([finger, hand, gen], 0x1234, 1, None, "Tablet Pen")
+    assert pen is not None and pen.effects["size_mm"] == [101, 51] and pen.entry is hand
+
+
+def test_a_users_entry_replaces_what_stiction_ships() -> None:
+    shipped = _e({"id": "1234:0001", "strings": {"1": "x"}}, "generated", size_mm=[100, 50])
+    init = _e({"id": "1234:0001"}, "builtin", init="huion-string-descriptor")
+    mine = _e({"id": "1234:0001"}, "user", size_mm=[120, 60])
+    r = merge([shipped, init, mine], 0x1234, 1, {1: "x"})
+    assert r is not None and r.effects == {"size_mm": [120, 60]} and r.used == (mine,)
+
+
+def test_real_shared_huion_id_with_and_without_its_firmware_string() -> None:
+    """256c:006d is 59 models in OpenTabletDriver; string 201 names the model."""
+    bare = hid_lookup(0x256C, 0x006D)
+    assert bare is not None and bare.size_m is None and bare.init == "huion-string-descriptor"
+    hs610 = hid_lookup(0x256C, 0x006D, {201: "HUION_T194_230101"})
+    assert hs610 is not None and hs610.name == "Huion HS610"
+    assert hs610.size_m == pytest.approx((0.254, 0.15875))
+    assert hs610.parser == "HuionTiltReportParser" and hs610.family is None
+    assert hs610.init == "huion-string-descriptor"
+    assert "Huion/HS610.json" in hs610.source and "DIGImend" in hs610.source
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        ('[[device]]\nmatch = { id = "1:1", strings = { 201 = "(" } }\nsource = "x"', "regular"),
+        ('[[device]]\nmatch = { id = "1:1", strings = { x = "a" } }\nsource = "x"', "index"),
+        ('[[device]]\nmatch = { id = "1:1", vendor = 1 }\nsource = "x"', "unknown match key"),
+        ('[[device]]\nid = "1:1"\nsource = "x"\nsize = [1, 2]', "unknown key"),
+        ('[[device]]\nid = "1:1"\nmatch = { id = "1:1" }\nsource = "x"', "not both"),
+        ('[[device]]\nid = "1:1"\nsource = "x"\nfamily = "wacom-bpt"', "needs 'max_x'"),
+        ('[[device]]\nid = "1:1"\nsource = "x"\noutput_init = ["zz"]', "not hex"),
+        ('[[device]]\nid = "12345:1"\nsource = "x"', "out of range"),
+    ],
+)
+def test_bad_entries_are_refused_with_the_reason(text: str, message: str) -> None:
+    with pytest.raises(DeviceError, match=message):
+        load.parse_toml(text, "overlay.toml", "user")
+
+
+# --- precedence on real recordings ----------------------------------------------
+
+
+def test_the_descriptor_wins_over_a_generated_size_that_disagrees(hid_data: Path) -> None:
+    """5543:004d is the Yiynova MVP20U+RH in this recording and
+    the XP-Pen Artist 16 in OpenTabletDriver: one USB id reused across products.
+    The descriptor is this unit's own statement, so it wins."""
+    rec = load_recording(hid_data / "yiynova-mvp20u-rh.hid")
+    entry = hid_lookup(rec.vid, rec.pid)
+    assert entry is not None and entry.size_layer == "generated" and entry.size_m is not None
+    assert entry.size_m == pytest.approx((0.34416, 0.19359))  # OpenTabletDriver's Artist 16
+    stream = ReportStream(parse_descriptor(rec.descriptor), rec.name, None, entry)
+    own = ReportStream(parse_descriptor(rec.descriptor), rec.name).surface_size
+    assert own is not None and own[0] > entry.size_m[0] + 0.05  # they disagree by > 5 cm
+    assert stream.surface_size == own and stream.size_from == "descriptor"
+    samples = [s for ev in rec.events for s in stream.feed(ev.t, ev.data)]
+    assert any(s.x > entry.size_m[0] for s in samples)  # real positions beyond the 16-inch area
+    d = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    assert d.size_from == "descriptor" and d.catalogue == "Yiynova MVP20U+RH (UC-Logic)"
+
+
+def test_a_generated_size_fills_in_where_the_descriptor_has_none(hid_data: Path) -> None:
+    """The Inspiroy 2 S recording declares no usable size; given its firmware string
+    (as a live open reads it), OpenTabletDriver's H641P entry gives the area."""
+    rec = load_recording(hid_data / "huion-inspiroy-2-s-pen.hid")
+    bare = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    assert bare.size_from == "vendor-init" and bare.surface_m is None
+    d = describe_device(
+        rec.vid, rec.pid, rec.name, rec.descriptor, strings={201: "HUION_T21j_230101"}
+    )
+    assert d.size_from == "catalogue" and d.catalogue == "Huion H641P"
+    assert d.surface_m == pytest.approx((0.16, 0.1))
+
+
+def test_a_hand_written_size_wins_over_the_descriptor(hid_data: Path) -> None:
+    """VEIKK S640: the descriptor's physical maxima are wrong (20.8 x 28.0 mm)."""
+    rec = load_recording(hid_data / "veikk-s640.hid")
+    d = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    assert d.size_from == "catalogue" and d.surface_m == pytest.approx((0.1524, 0.1016))
+
+
+def test_a_users_string_entry_is_config(hid_data: Path, tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    table = tmp_path / "mine.toml"
+    table.write_text(
+        '[[device]]\nmatch = { id = "256c:0066", strings = { 201 = "^HUION_T21j" } }\n'
+        'name = "my H641P"\nsource = "my ruler"\nsize_mm = [159, 99]\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    rec = load_recording(hid_data / "huion-inspiroy-2-s-pen.hid")
+    d = describe_device(
+        rec.vid, rec.pid, rec.name, rec.descriptor, strings={201: "HUION_T21j_230101"}
+    )
+    assert (d.size_from, d.catalogue) == ("config", "my H641P")
+    assert d.surface_m == pytest.approx((0.159, 0.099))
+    # Without the string the user's entry does not apply; the shipped ones do.
+    assert describe_device(rec.vid, rec.pid, rec.name, rec.descriptor).size_from == "vendor-init"
+
+
+# --- live strings through pyusb -------------------------------------------------
+
+
+def test_a_live_open_reads_the_strings_the_catalogue_matches_on() -> None:
+    sys.path.insert(0, str(REPO / "tests" / "hid"))
+    from fake_huion_usb import (  # type: ignore[import-not-found]
+        V2,
+        HuionUsbBackend,
+        string_descriptor,
+    )
+
+    from stiction.drivers.catalogue.resolve import string_indices
+    from stiction.drivers.hid.hidraw_backend import _usb_strings
+
+    firmware = string_descriptor("HUION_T194_230101".encode("utf-16-le"))
+    backend = HuionUsbBackend({200: V2, 201: firmware})
+    assert 201 in string_indices(0x256C, 0x006D)
+    strings = _usb_strings(0x256C, 0x006D, backend)
+    assert strings == {201: "HUION_T194_230101"}
+    # Only string descriptors were asked for, and never 200 (it switches the mode).
+    asked = {wvalue & 0xFF for _, _, wvalue, _, _ in backend.requests}
+    assert 200 not in asked and asked == set(string_indices(0x256C, 0x006D))
+    entry = hid_lookup(0x256C, 0x006D, strings)
+    assert entry is not None and entry.name == "Huion HS610"
+    gone = HuionUsbBackend({}, present=False)
+    assert _usb_strings(0x256C, 0x006D, gone) is None  # unplugged: match by id alone
+
+
+# --- evdev ----------------------------------------------------------------------
+
+
+def _node(name: str, keys: set[int], vid: int = 0x056A, pid: int = 0x0374) -> DeviceDescription:
+    axes = {ecodes.ABS_X: AbsAxis(0, 0, 15200), ecodes.ABS_Y: AbsAxis(0, 0, 9500)}
+    return DeviceDescription(name, 3, vid, pid, keys=frozenset(keys), axes=axes)
+
+
+def test_evdev_pen_node_gets_the_generated_size_a_touch_node_does_not() -> None:
+    """Wacom CTL-4100 (Intuos S): 152 x 95 mm in OpenTabletDriver, a pen area."""
+    pen = sizes.apply(_node("Wacom Intuos S Pen", {ecodes.BTN_TOOL_PEN, ecodes.BTN_TOUCH}))
+    assert pen.axes[ecodes.ABS_X].resolution == pytest.approx(100.0)
+    assert pen.axes[ecodes.ABS_Y].resolution == pytest.approx(100.0)
+    finger = _node("Wacom Intuos S Finger", {ecodes.BTN_TOOL_FINGER, ecodes.BTN_TOUCH})
+    assert sizes.lookup(finger) is None
+    with pytest.raises(DeviceError, match="no resolution"):
+        sizes.require(sizes.apply(finger))
+
+
+def test_evdev_hand_written_entries_match_by_name() -> None:
+    keys = {ecodes.BTN_TOOL_FINGER, ecodes.BTN_TOUCH}
+    finger = sizes.lookup(_node("Wacom Intuos5 touch M Finger", keys, 0x056A, 0x0027))
+    assert finger is not None and finger.size_mm == (223.52, 139.70)
+    assert finger.name == "Intuos5 touch M Finger"
+    assert sizes.lookup(_node("Wacom Intuos5 touch M Pad", keys, 0x056A, 0x0027)) is None
+
+
+def test_catalogue_lookup_is_empty_for_an_unknown_id() -> None:
+    assert lookup(0x1234, 0x5678) is None
+    assert all(e.match.vid != 0x1234 or e.match.pid != 0x5678 for e in catalogue())
+
+
+def test_the_entries_shown_in_the_docs_are_valid_catalogue_entries() -> None:
+    sys.path.insert(0, str(REPO / "tests" / "docs"))
+    from doc_blocks import parse_page  # type: ignore[import-not-found]
+
+    shown = [
+        b
+        for page in ("docs/devices.md", "docs/evdev.md")
+        for b in parse_page(REPO / page)
+        if b.kind == "toml" and "[[device]]" in b.text
+    ]
+    assert len(shown) >= 4
+    for block in shown:
+        assert load.parse_toml(block.text, block.id, "user"), block.id
+
+
+def test_a_failing_generated_huion_init_falls_back_to_the_descriptor() -> None:
+    """256c:0064 asks for the Huion init only in OpenTabletDriver's facts: when the
+    USB read fails, the device is read as its descriptor says instead of refusing
+    to open; a hand-written init (256c:006d) still fails loudly."""
+    sys.path.insert(0, str(REPO / "tests" / "hid"))
+    from fake_huion_usb import HuionUsbBackend
+
+    from stiction.drivers.hid.hidraw_backend import _vendor_init
+
+    generated = hid_lookup(0x256C, 0x0064)
+    assert generated is not None and generated.init == "huion-string-descriptor"
+    assert generated.init_layer == "generated"
+    absent = HuionUsbBackend({}, present=False, pid=0x0064)
+    init = _vendor_init(None, generated, absent)
+    assert init.size_m is None and init.descriptor is None and init.fixup is None
+    written = hid_lookup(0x256C, 0x006D)
+    assert written is not None and written.init_layer == "builtin"
+    with pytest.raises(DeviceError, match="not found"):
+        _vendor_init(None, written, HuionUsbBackend({}, present=False))
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "stiction", "hid", "describe", *args],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+
+
+def test_describe_takes_the_usb_strings_a_recording_lacks(hid_data: Path) -> None:
+    path = str(hid_data / "huion-inspiroy-2-s-pen.hid")
+    done = _cli(path, "--json", "--usb-string", "201=HUION_T21j_230101")
+    assert done.returncode == 0, done.stderr
+    device = json.loads(done.stdout)["device"]
+    assert (device["size_from"], device["catalogue"]) == ("catalogue", "Huion H641P")
+    text = _cli(path, "--usb-string", "201=HUION_T21j_230101")
+    assert "from the catalogue (Huion H641P)" in text.stdout
+    bad = _cli(path, "--usb-string", "two hundred")
+    assert bad.returncode == 2 and "INDEX=TEXT" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_evdev_kernel_resolution_wins_and_the_catalogue_fills_in_without_it(
+    evdev_data: Path,
+) -> None:
+    """UC-Logic WP5540U pen node (5543:0004): the kernel says 235 units/mm; with the
+    resolution gone (an old kernel), OpenTabletDriver's 139.7 x 101.6 mm applies."""
+    from stiction.drivers.evdev.recording import load as load_evdev
+
+    desc = load_evdev(evdev_data / "uc-logic-wp5540u-pen.evemu").description
+    x, y = desc.position_codes
+    assert sizes.apply(desc).axes[x].resolution == desc.axes[x].resolution == 235
+    entry = sizes.lookup(desc)
+    assert entry is not None and "OpenTabletDriver" in entry.source
+    old = sizes.apply(desc.with_resolution(0, 0))
+    width = (old.axes[x].maximum - old.axes[x].minimum) / old.axes[x].resolution
+    height = (old.axes[y].maximum - old.axes[y].minimum) / old.axes[y].resolution
+    assert (width, height) == pytest.approx((139.6873, 101.5873), abs=0.01)
+    # The kernel's own figure for this node is within 0.3 mm of OpenTabletDriver's.
+    kernel_w = (desc.axes[x].maximum - desc.axes[x].minimum) / 235
+    assert abs(kernel_w - width) < 0.3
+
+
+def test_every_entry_becomes_a_working_hid_entry() -> None:
+    """Each entry alone, as the HID path sees it: a family's generated descriptor
+    parses and gives a pen stream of the entry's size; every init report is hex."""
+    from stiction.drivers.catalogue.resolve import Resolved
+    from stiction.drivers.hid.devices import from_resolved
+
+    families = 0
+    for e in load.generated() + load.builtin():
+        entry = from_resolved(Resolved(e, e.effects, dict.fromkeys(e.effects, e), (e,)))
+        assert entry.name == e.name and entry.source == e.source
+        if entry.family is not None:
+            families += 1
+            assert entry.descriptor is not None and entry.size_m is not None
+            stream = ReportStream(parse_descriptor(entry.descriptor), e.name, None, entry)
+            assert stream.kind == "pen" and stream.size_from == "catalogue"
+            assert stream.surface_size == pytest.approx(entry.size_m, abs=1e-5)
+    assert families >= 60
+
+
+def test_a_pen_family_stays_off_another_interface_of_the_same_id(hid_data: Path) -> None:
+    """Wacom PTZ-630 (Intuos3 6x8, 056a:00b1): its pen interface's descriptor
+    (linuxwacom/wacom-hid-descriptors, in shared/data/coverage) declares report 2 of
+    10 bytes, the length OpenTabletDriver matches; a touch interface sharing the id
+    (here a real touchpad descriptor given that id) keeps its own descriptor."""
+    pen = load_recording(REPO.parent / "shared/data/coverage/wacom-intuos3-6x8-056a00b1-1.hid")
+    facts = describe_device(pen.vid, pen.pid, pen.name, pen.descriptor)
+    assert (facts.kind, facts.size_from, facts.catalogue) == ("pen", "catalogue", "Wacom PTZ-630")
+    assert facts.surface_m == pytest.approx((0.2032, 0.1524))
+    entry = hid_lookup(pen.vid, pen.pid, descriptor=pen.descriptor)
+    assert entry is not None and entry.family == "wacom-intuos"
+    touch = load_recording(hid_data / "elan-04f3-3140-touchpad.hid").descriptor
+    other = describe_device(pen.vid, pen.pid, "Wacom touch", touch)
+    assert (other.kind, other.size_from, other.catalogue) == (
+        "touchpad",
+        "descriptor",
+        "Wacom PTZ-630",
+    )
+    off = hid_lookup(pen.vid, pen.pid, descriptor=touch)
+    assert off is not None and off.family is None and off.descriptor is None
+
+
+def test_hid_devices_match_by_their_product_name(
+    hid_data: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """UGEE M708 v2 (28bd:0907) is "10 inch PenTablet" in its recording."""
+    table = tmp_path / "mine.toml"
+    table.write_text(
+        '[[device]]\nmatch = { id = "28bd:0907", name = "^10 inch PenTablet$" }\n'
+        'name = "M708 by name"\nsource = "my ruler"\nsize_mm = [250, 150]\n'
+        '[[device]]\nmatch = { id = "28bd:0907", name = "Artist" }\n'
+        'name = "not this one"\nsource = "my ruler"\nsize_mm = [100, 100]\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    rec = load_recording(hid_data / "ugee-m708-v2.hid")
+    d = describe_device(rec.vid, rec.pid, rec.name, rec.descriptor)
+    assert (d.size_from, d.catalogue) == ("config", "M708 by name")
+    assert d.surface_m == pytest.approx((0.25, 0.15))
+    from stiction.drivers.hid.playback import open_replay
+
+    assert open_replay(hid_data / "ugee-m708-v2.hid").surface_size == pytest.approx((0.25, 0.15))
+    other = describe_device(rec.vid, rec.pid, "another tablet", rec.descriptor)
+    assert (other.size_from, other.catalogue) == ("descriptor", "XP-Pen Star 03")
+
+
+def test_the_users_overlay_sizes_an_evdev_node(tmp_path: Path, monkeypatch) -> None:  # type: ignore[no-untyped-def]
+    keys = {ecodes.BTN_TOOL_FINGER, ecodes.BTN_TOUCH}
+    node = _node("Acme Pad Finger", keys, 0x1234, 0x0001)
+    assert sizes.lookup(node) is None
+    table = tmp_path / "mine.toml"
+    table.write_text(
+        '[[device]]\nmatch = { id = "1234:0001", name = "Finger$" }\n'
+        'source = "my ruler"\nsize_mm = [152, 95]\n'
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    fixed = sizes.apply(node)
+    assert fixed.axes[ecodes.ABS_X].resolution == pytest.approx(100.0)
