@@ -173,7 +173,7 @@ def build_mappings(
     size and none is given.
     """
     mappings: dict[int, ReportMapping] = {}
-    unsized: list[tuple[str | None, DeviceError]] = []  # (kind, why) of reports left out
+    unsized: list[tuple[str | None, SizeUnknown]] = []  # (kind, why) of reports left out
     pointer_pens = not _has_digitizer(desc)
     for rid, report in desc.input_reports.items():
         page = report.application >> 16
