@@ -15,7 +15,7 @@ import pytest
 from clients_support import SCENE, FakeDaemon, make_frame, run_in_thread, scene_message, stroke
 
 from stiction import cli, protocol
-from stiction.clients import Frame, SceneMessage, Subscriber, control
+from stiction.clients import Frame, SceneMessage, Subscriber, control, spool
 from stiction.clients import recording as rec_mod
 from stiction.clients.record import record
 from stiction.clients.replay import Replayer
@@ -222,21 +222,47 @@ def test_record_writes_the_file_when_stopped_by_a_signal(
     out = short_dir / f"sig-{sig.name}.npz"
     proc = subprocess.Popen(
         [
-            *(str(Path(sys.executable).with_name("stiction")), "record", daemon.pub_endpoint),
-            *("--out", str(out), "--control", daemon.control_endpoint),
+            *(str(Path(sys.executable).with_name("stiction")), "-v", "-v", "record"),
+            *(daemon.pub_endpoint, "--out", str(out), "--control", daemon.control_endpoint),
         ],
         stderr=subprocess.PIPE,
         text=True,
     )
-    daemon.wait_subscribers(2)  # it is recording
-    for f in stroke(5):
-        daemon.send(f)
-    proc.send_signal(sig)
-    _, err = proc.communicate(timeout=30)
+    watchdog = threading.Timer(60, proc.kill)
+    watchdog.start()
+    try:
+        daemon.wait_subscribers(2)  # it is recording
+        for f in stroke(5):
+            daemon.send(f)
+        assert proc.stderr is not None
+        seen = []  # the debug log says when the five frames are in the spool
+        for line in iter(proc.stderr.readline, ""):
+            seen.append(line)
+            if "spooled 5 frames" in line:
+                break
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=30)
+    finally:
+        watchdog.cancel()
+    err = "".join(seen) + err
     assert proc.returncode == 0, err
     rec = rec_mod.read(out)
-    assert rec.meta["scene"] == SCENE and rec.table.frame_count <= 5
-    assert f"to {out}" in err
+    assert rec.meta["scene"] == SCENE and rec.table.frame_count == 5
+    assert f"wrote 5 frames (5 contacts, 1 scene messages) to {out}" in err, err
+
+
+def test_record_fails_and_writes_nothing_when_no_frame_came(
+    daemon: FakeDaemon, short_dir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The daemon answers but publishes nothing (here: no device): exit 1, no file,
+    and the reason in words."""
+    out = short_dir / "empty.npz"
+    argv = ["record", daemon.pub_endpoint, "--out", str(out), "--control"]
+    assert cli.main([*argv, daemon.control_endpoint, "--seconds", "0.3"]) == 1
+    err = capsys.readouterr().err
+    assert "no frame arrived in 0." in err and "nothing was written to" in err
+    assert "is up but reads no device" in err, err  # FakeDaemon's devices reply lists none
+    assert not out.exists() and not spool.spool_path(out).exists()
 
 
 def test_curve_flags_come_in_pairs(capsys: pytest.CaptureFixture[str]) -> None:

@@ -57,7 +57,13 @@ def _listen(args: argparse.Namespace) -> int:
 
 
 def _record(args: argparse.Namespace) -> int:
-    from stiction.clients.record import record, recover_spool, report, stop_on_signals
+    from stiction.clients.record import (
+        NothingRecorded,
+        record,
+        recover_spool,
+        report,
+        stop_on_signals,
+    )
 
     if args.recover:
         return recover_spool(args.recover, args.out, args.force)
@@ -66,18 +72,22 @@ def _record(args: argparse.Namespace) -> int:
         return 2
     ctl = None if args.no_control else (args.control or default_control(args.endpoint))
     with stop_on_signals() as stop:
-        result = record(
-            args.endpoint,
-            args.out,
-            control_endpoint=ctl,
-            count=args.count,
-            seconds=args.seconds,
-            idle=args.idle,
-            devices=args.device or None,
-            stop=stop,
-            curve=_curve(args),
-            force=args.force,
-        )
+        try:
+            result = record(
+                args.endpoint,
+                args.out,
+                control_endpoint=ctl,
+                count=args.count,
+                seconds=args.seconds,
+                idle=args.idle,
+                devices=args.device or None,
+                stop=stop,
+                curve=_curve(args),
+                force=args.force,
+            )
+        except NothingRecorded as exc:  # not a usage error: the session itself was empty
+            print(f"stiction record: {exc}", file=sys.stderr)
+            return 1
     report(result)
     return 0
 

@@ -83,6 +83,10 @@ def fetch_metadata(
     return meta
 
 
+class NothingRecorded(RecordingError):
+    """The session ended before a single frame arrived: no file is written."""
+
+
 def record(
     endpoint: str,
     out: str | Path,
@@ -101,6 +105,7 @@ def record(
 ) -> RecordResult:
     """Record until ``count`` frames, ``seconds``, ``idle`` seconds of silence
     after the first frame, ``stop`` being set, or Ctrl-C; then write ``out``.
+    Raises NothingRecorded, writing nothing, when not one frame arrived.
 
     While recording, messages go to the spool ``out.partial`` every ``chunk``
     messages or ``flush_every`` seconds (module doc); a spool left there by a
@@ -177,6 +182,15 @@ def record(
         if sub is not None:
             stats = sub.stats
             sub.close()
+    if not writer.frames and stopped_by is None:
+        writer.discard()  # a file without a frame helps nobody, and would look like a session
+        from stiction.clients.diagnose import why_silent
+
+        _, why = why_silent(endpoint, control_endpoint, curve=curve)
+        raise NothingRecorded(
+            f"no frame arrived in {time.monotonic() - t0:.1f} s, so nothing was written to "
+            f"{out}: {why}"
+        )
     try:
         summary = writer.finish(out, asdict(stats), time.monotonic() - t0)
     except BaseException:
