@@ -13,7 +13,7 @@ import pytest
 
 from stiction.cli import main
 from stiction.drivers.hid.devices import builtin_table, parse_table
-from stiction.setup.udev_rules import RULES_NAME, builtin_rules, render
+from stiction.setup.udev_rules import RULES_NAME, USB_INITS, builtin_rules, render, shipped_ids
 
 REPO = Path(__file__).resolve().parents[2]
 COMMITTED = REPO / "udev" / RULES_NAME
@@ -85,12 +85,14 @@ def test_every_table_device_is_matched_on_any_bus() -> None:
     """The KERNELS glob matches the hid device's kernel name for USB, Bluetooth and I2C."""
     rules = _rules(builtin_rules())
     hid_globs = [v for r in rules for k, _, _, v in r if k == "KERNELS"]
-    for vid, pid in builtin_table():
+    ids = {(r.vid, r.pid) for r in shipped_ids()}
+    assert set(builtin_table()) <= ids and len(ids) > 200  # hand-written and generated
+    for vid, pid in ids:
         for bus in ("0003", "0005", "0018"):
             name = f"{bus}:{vid:04X}:{pid:04X}.000A"
             assert any(fnmatch.fnmatchcase(name, g) for g in hid_globs), name
         other = f"0003:{vid:04X}:{(pid + 1) & 0xFFFF:04X}.0001"
-        if (vid, (pid + 1) & 0xFFFF) not in builtin_table():
+        if (vid, (pid + 1) & 0xFFFF) not in ids:
             assert not any(fnmatch.fnmatchcase(other, g) for g in hid_globs), other
 
 
@@ -104,12 +106,10 @@ def test_usb_nodes_only_for_usb_vendor_init() -> None:
         for r in rules
         if ("SUBSYSTEM", None, "==", "usb") in r
     }
-    wanted = {
-        (f"{e.vid:04x}", f"{e.pid:04x}")
-        for e in builtin_table().values()
-        if e.init == "huion-string-descriptor"
-    }
+    wanted = {(f"{r.vid:04x}", f"{r.pid:04x}") for r in shipped_ids() if r.init in USB_INITS}
     assert usb == wanted and wanted
+    huion = {(f"{e.vid:04x}", f"{e.pid:04x}") for e in builtin_table().values() if e.init}
+    assert {("256c", "006d"), ("256c", "006e")} <= huion <= usb
 
 
 def test_input_devices_by_udev_class() -> None:

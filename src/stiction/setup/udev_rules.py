@@ -8,36 +8,58 @@ any process of any user would be a privacy leak.
 
 What gets the tag:
 
-- the hidraw nodes of every device in the HID device table
-  (stiction/drivers/catalogue/devices.toml), matched on the parent HID device's
+- the hidraw nodes of every id in the device catalogue (the hand-written
+  stiction/drivers/catalogue/devices.toml and the entries generated from
+  OpenTabletDriver's facts, otd.json), matched on the parent HID device's
   kernel name ``BBBB:VVVV:PPPP.NNNN``. That name carries the ids whatever the
   bus, so one rule covers USB, Bluetooth (0005) and I2C-HID (0018), where
   ``ATTRS{idVendor}`` would exist only for USB;
-- the USB device node (/dev/bus/usb/BBB/DDD) of table devices whose vendor
+- the USB device node (/dev/bus/usb/BBB/DDD) of ids where an entry's vendor
   initialisation is a USB control transfer made with pyusb (the Huion string
-  descriptor): libusb opens that node, not the hidraw one;
+  descriptor), and of every id that an entry matches by USB string
+  descriptors (read with pyusb when the tablet is opened): libusb opens that
+  node, not the hidraw one;
 - every evdev node that udev's input_id builtin (60-input-id.rules) marks as
   a tablet, touchpad or touchscreen.
 
-`render()` is a pure function of the table, so a test can check that the
-committed udev/70-stiction.rules is what the table says today.
+`render()` is a pure function of the entries, so a test can check that the
+committed udev/70-stiction.rules is what the catalogue says today.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable
-from typing import TYPE_CHECKING
+from dataclasses import dataclass
+from typing import Protocol
 
-if TYPE_CHECKING:
-    # Only for annotations: `stiction --help` reads RULES_NAME from here, and
-    # the device table module (tomllib, importlib.resources) is not needed for that.
-    from stiction.drivers.hid.devices import DeviceEntry
+
+class RuleEntry(Protocol):
+    """What a rule needs of a device: its id, a name for the comment, its USB init."""
+
+    @property
+    def vid(self) -> int: ...
+    @property
+    def pid(self) -> int: ...
+    @property
+    def name(self) -> str: ...
+    @property
+    def init(self) -> str | None: ...
+
+
+@dataclass(frozen=True)
+class IdRule:
+    vid: int
+    pid: int
+    name: str
+    init: str | None
+
 
 RULES_NAME = "70-stiction.rules"
 """Sorts before 73-seat-late.rules, where the uaccess ACLs are applied."""
 
-USB_INITS = ("huion-string-descriptor",)
-"""Vendor initialisations that go through libusb and so need the USB node."""
+USB_INITS = ("huion-string-descriptor", "usb-strings")
+"""What goes through libusb and so needs the USB node: the Huion init, and reading
+the USB string descriptors that a catalogue entry matches on."""
 
 INPUT_PROPERTIES = ("ID_INPUT_TABLET", "ID_INPUT_TOUCHPAD", "ID_INPUT_TOUCHSCREEN")
 
@@ -55,16 +77,16 @@ HEADER = """\
 """
 
 
-def _name(entry: DeviceEntry) -> str:
+def _name(entry: RuleEntry) -> str:
     """The entry's name, safe inside a comment line."""
     return " ".join(entry.name.split())
 
 
-def render(table: Iterable[DeviceEntry]) -> str:
-    """The complete rules file for these HID table entries (deterministic order)."""
+def render(table: Iterable[RuleEntry]) -> str:
+    """The complete rules file for these entries (deterministic order)."""
     entries = sorted(table, key=lambda e: (e.vid, e.pid))
     out = [HEADER.format(name=RULES_NAME), 'ACTION=="remove", GOTO="stiction_end"', ""]
-    out.append("# hidraw nodes of the tablets in the HID device table (any bus)")
+    out.append("# hidraw nodes of the tablets in the device catalogue (any bus)")
     for e in entries:
         out.append(f"# {e.vid:04x}:{e.pid:04x} {_name(e)}")
         out.append(
@@ -91,8 +113,27 @@ def render(table: Iterable[DeviceEntry]) -> str:
     return "\n".join(out) + "\n"
 
 
-def builtin_rules() -> str:
-    """The rules for the device table this installation ships."""
-    from stiction.drivers.hid.devices import builtin_table
+def shipped_ids() -> list[IdRule]:
+    """One rule entry per id the shipped catalogue knows, hand-written and generated."""
+    from stiction.drivers.catalogue import load
+    from stiction.drivers.catalogue.schema import Entry
 
-    return render(builtin_table().values())
+    by_id: dict[tuple[int, int], list[Entry]] = {}
+    for e in load.generated() + load.builtin():
+        by_id.setdefault((e.match.vid, e.match.pid), []).append(e)
+    out = []
+    for (vid, pid), entries in sorted(by_id.items()):
+        names = sorted({e.name for e in entries})
+        name = names[0] if len(names) == 1 else f"{names[0]} and {len(names) - 1} more"
+        init = None
+        if any(e.effects.get("init") == "huion-string-descriptor" for e in entries):
+            init = "huion-string-descriptor"
+        elif any(e.match.strings for e in entries):
+            init = "usb-strings"
+        out.append(IdRule(vid, pid, name, init))
+    return out
+
+
+def builtin_rules() -> str:
+    """The rules for the catalogue this installation ships."""
+    return render(shipped_ids())
