@@ -305,7 +305,7 @@ def _probe(d: dict[str, Any]) -> DeviceInfo | None:
         return DeviceInfo(spath, "hidraw", vid, pid, name, "other", str(exc))
     finally:
         dev.close()
-    entry = lookup(vid, pid)
+    entry = lookup(vid, pid, name=name, descriptor=raw)  # a pen family fits only its interface
     try:
         desc = parse_descriptor(entry.descriptor if entry and entry.descriptor else raw)
     except DescriptorError as exc:
