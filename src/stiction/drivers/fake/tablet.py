@@ -102,11 +102,30 @@ class SyntheticTablet:
             offset += period
 
 
+STDIN = "stdin"
+"""The name of the steered pen: states read from the daemon's standard input (feed.py)."""
+
+
 def synthetic(name: str = "demo", realtime: bool = True, loop: bool = False) -> ReportSource:
-    """A SampleSource playing the named script ("stroke", "circles", "demo")."""
+    """A SampleSource playing the named script ("stroke", "circles", "demo"), or
+    "stdin": pen states written by another program (stiction.drivers.fake.feed)."""
+    if name == STDIN:
+        return _steered()
     if name not in SCRIPTS:
         known = ", ".join(sorted(SCRIPTS))
         raise DeviceError(f"unknown synthetic stroke {name!r}; known: {known}")
     tablet = SyntheticTablet()
     stream = ReportStream(tablet.descriptor, f"synthetic {name}")
     return ReportSource(f"synthetic-{name}", stream, tablet.reports(name, loop), realtime)
+
+
+def _steered() -> ReportSource:
+    """The pen steered through stdin; paced by its writer, so never re-paced here."""
+    import sys
+
+    from stiction.drivers.fake.feed import read_states
+
+    tablet = SyntheticTablet()
+    stream = ReportStream(tablet.descriptor, "synthetic stdin")
+    reports = ((s.t, tablet.encode(s)) for s in read_states(sys.stdin.buffer))
+    return ReportSource("synthetic-stdin", stream, reports, realtime=False)
