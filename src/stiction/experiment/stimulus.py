@@ -7,9 +7,11 @@ carry the string at all (a renderer cannot draw what it is not sent).
 
 A stimulus begins when the pen touches down within `start_tolerance_px` of
 the display centre (where the page draws the dot) and ends when the pointer
-has moved `travel_px` from where it began (User study 1, Task design). A pen
-lifted before the end restarts the stimulus: what the participant saw was
-not the whole stimulus.
+has moved `travel_px` from where it began (User study 1, Task design). The
+touch-down must be a fresh one (the pen seen off the surface after the
+stimulus was armed), so a pen still down from the previous stimulus never
+starts the next. A pen lifted before the end restarts the stimulus: what the
+participant saw was not the whole stimulus.
 """
 
 from __future__ import annotations
@@ -47,6 +49,7 @@ class StimulusMonitor:
     tolerance: float
     travel: float
     record: bool = False
+    lifted: bool = False
     started: bool = False
     ended: bool = False
     restarts: int = 0
@@ -77,6 +80,9 @@ class StimulusMonitor:
         t = float(frame.get("t", 0.0))
         if not self.started:
             if not touching or c is None:
+                self.lifted = True
+                return False
+            if not self.lifted:
                 return False
             px, py = c["pointer_px"]
             if math.hypot(px - self.centre[0], py - self.centre[1]) > self.tolerance:
@@ -85,6 +91,7 @@ class StimulusMonitor:
         elif not touching or c is None:
             self.restarts += 1
             self._reset()
+            self.lifted = True
             return False
         dt = t - self.t_last
         self.t_last = t
