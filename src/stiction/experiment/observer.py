@@ -49,9 +49,9 @@ class ObserverParams:
 
     s0_px: float = 10.0
     """Sensation offset: psi = ln(1 + S/s0)."""
-    sigma_string: float = 0.12
+    sigma_string: float = 0.3
     """Sensation noise (log units) when the string is drawn."""
-    sigma_nostring: float = 0.35
+    sigma_nostring: float = 1.2
     """Sensation noise without the string: the discrepancy is only felt."""
     lapse: float = 0.02
     """Probability of a random answer."""
@@ -224,15 +224,19 @@ def simulate_stimulus(
     scale = _mapping_scale(display)
     origin: tuple[float, float] | None = None
     best_gap = best_string = 0.0
-    tick = 0.01
-    t_next = math.ceil(stroke.t / tick + 1e-9) * tick
+    tick = 1.0 / 100.0
+    n = math.ceil(stroke.t / tick + 1e-9)
+    t_next = n * tick
     batch: list[Touch] = []
     for _ in range(5000):
         s = stroke.next()
-        if s.t > t_next:
+        # Sample times are sums of 5 ms steps: one that lands on a tick up to
+        # rounding belongs to that tick, as the daemon's loop places it.
+        if s.t > t_next + 1e-9:
             st = sim.advance(t_next, batch)
             batch = []
-            t_next += tick
+            n += 1
+            t_next = n * tick
             if st.phase in ("stick", "slip"):
                 if origin is None:
                     origin = (st.pointer_x, st.pointer_y)

@@ -30,6 +30,8 @@ from stiction.experiment.study import Study
 
 log = logging.getLogger("stiction.experiment.simulate")
 MAX_STROKE_S = 10.0
+STEP_SAMPLES = 4
+"""Pen samples written per round trip (20 ms at 200 Hz): the observer's reaction grain."""
 
 
 def _seed(*parts: object) -> int:
@@ -73,7 +75,7 @@ def _stimulus(daemon: SteeredDaemon, session: Session, observer: Observer) -> fl
         while not stroke.lifted:
             if stroke.ended_at is None and daemon.t - start > MAX_STROKE_S:
                 stroke.end()  # never started (touched down off the dot): try again
-            daemon.step([stroke.next(), stroke.next()])
+            daemon.step([stroke.next() for _ in range(STEP_SAMPLES)])
         daemon.on_frame = None
         daemon.idle(0.2)
         if session.stimulus is not st or session.state != "stimulus":
