@@ -16,6 +16,12 @@ from stiction.drivers.fake.feed import format_state, read_states
 from stiction.drivers.fake.strokes import PenState
 from stiction.errors import DeviceError
 
+DAEMON = [
+    sys.executable,
+    "-c",
+    "import sys; from stiction.daemon.main import main; sys.exit(main())",
+]
+
 
 def test_lines_round_trip() -> None:
     s = PenState(0.125, 0.05, 0.04, True, True, 0.4)
@@ -41,7 +47,7 @@ def test_the_daemon_follows_the_steered_pen() -> None:
     """A drag written to stdin comes back as frames: the pointer sticks, then slips."""
     d = Path(tempfile.mkdtemp(prefix="stc-"))
     pub = f"ipc://{d}/pub"
-    cmd = [sys.executable, "-c", "import sys; from stiction.daemon.main import main; sys.exit(main())",
+    cmd = [*DAEMON,
            "--device", "synthetic:stdin", "--clock", "virtual", "--pub", pub,
            "--control", f"ipc://{d}/ctl", "--wait-subscribers", "1", "--no-hotplug"]  # fmt: skip
     ctx = zmq.Context()

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 import signal
@@ -81,10 +82,8 @@ def test_a_killed_run_resumes_where_it_stopped(tmp_path: Path) -> None:
             if csv.exists() and csv.read_text().count("\n") >= 4:
                 break
             assert proc.poll() is None, proc.stderr.read() if proc.stderr else ""
-            try:
+            with contextlib.suppress(subprocess.TimeoutExpired):
                 proc.wait(0.05)
-            except subprocess.TimeoutExpired:
-                pass
         proc.send_signal(signal.SIGKILL)
         proc.wait(30)
     finally:

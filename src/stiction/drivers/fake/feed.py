@@ -20,6 +20,9 @@ naming the line, rather than guessing.
 from __future__ import annotations
 
 import math
+import os
+import select
+import threading
 from collections.abc import Iterator
 from typing import BinaryIO
 
@@ -50,10 +53,35 @@ def parse_line(line: str, number: int) -> PenState:
     return PenState(t, x, y, tip != 0, in_range != 0, min(max(pressure, 0.0), 1.0))
 
 
-def read_states(stream: BinaryIO) -> Iterator[PenState]:
-    """Pen states from `stream` until end of input; blank lines are skipped."""
+def _lines(stream: BinaryIO, stop: threading.Event | None) -> Iterator[bytes]:
+    """Lines of `stream`; with `stop`, read so that setting it ends a blocked read soon.
+
+    A thread blocked in a plain read of stdin cannot be woken, and at
+    interpreter exit it holds the stream's lock (CPython then aborts), so the
+    daemon's reader polls the descriptor instead."""
+    if stop is None:
+        yield from stream
+        return
+    fd = stream.fileno()
+    pending = b""
+    while not stop.is_set():
+        ready, _, _ = select.select([fd], [], [], 0.1)
+        if not ready:
+            continue
+        chunk = os.read(fd, 65536)
+        if not chunk:
+            break
+        pending += chunk
+        *lines, pending = pending.split(b"\n")
+        yield from lines
+    if pending and not stop.is_set():
+        yield pending
+
+
+def read_states(stream: BinaryIO, stop: threading.Event | None = None) -> Iterator[PenState]:
+    """Pen states from `stream` until end of input (or `stop`); blank lines are skipped."""
     last_t = -math.inf
-    for number, raw in enumerate(stream, start=1):
+    for number, raw in enumerate(_lines(stream, stop), start=1):
         line = raw.decode("ascii", errors="replace").strip()
         if not line:
             continue
