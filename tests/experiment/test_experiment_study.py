@@ -114,3 +114,13 @@ def test_cli_check_shows_a_preset(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["experiment", "check", "paper-study1", "--repetitions", "3"]) == 0
     out = capsys.readouterr().out
     assert "18 trials per block, 36 in all" in out
+
+
+def test_the_docs_show_the_preset_as_it_is() -> None:
+    """docs/experiments.md quotes paper-study2's file in full; the quote must not drift."""
+    import re
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "experiments.md").read_text()
+    (block,) = [b for b in re.findall(r"```toml\n(.*?)```", doc, re.S) if "paper-study2" in b]
+    quoted = parse_study(block, "paper-study2")
+    assert quoted == load_study("paper-study2")
