@@ -102,3 +102,16 @@ def test_a_killed_run_resumes_where_it_stopped(tmp_path: Path) -> None:
     again = subprocess.run(cmd, env=_env(), capture_output=True, text=True, timeout=300)
     assert again.returncode == 0
     assert data.read_trials([csv]) == after
+
+
+def test_run_without_a_daemon_is_one_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    endpoint = f"ipc://{tmp_path}/nothing"
+    argv = ["experiment", "run", "paper-study1", "--participant", "P01", "--out", str(tmp_path),
+            "--pub", endpoint, "--control", endpoint, "--port", "0"]  # fmt: skip
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "no reply to 'ping'" in err and "Traceback" not in err
+    assert main([*argv[:4], "../P01", *argv[5:]]) == 2
+    assert "participant ID '../P01'" in capsys.readouterr().err

@@ -102,6 +102,7 @@ class LiveRunner:
             device_spec=dev.get("spec") if dev else None,
             device_size_m=dev.get("surface_m") if dev else None,
             mapping=dev.get("mapping") if dev else None,
+            scene=(await control_mod.request_async(self.control, "get_scene"))["scene"],
             clock="real",
             simulated=False,
         )
