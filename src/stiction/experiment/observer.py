@@ -51,7 +51,7 @@ class ObserverParams:
     """Sensation offset: psi = ln(1 + S/s0)."""
     sigma_string: float = 0.3
     """Sensation noise (log units) when the string is drawn."""
-    sigma_nostring: float = 1.2
+    sigma_nostring: float = 0.8
     """Sensation noise without the string: the discrepancy is only felt."""
     lapse: float = 0.02
     """Probability of a random answer."""
@@ -263,13 +263,22 @@ def shown_discrepancies(
     strokes: int = 12,
     seed: int = 7,
 ) -> dict[float, list[float]]:
-    """For each mu_s, the discrepancies of `strokes` typical strokes (headless)."""
-    obs = Observer(observer_params, seed)
+    """For each mu_s, the discrepancies of `strokes` typical strokes (headless).
+
+    Each stroke comes from another simulated participant, so the truth
+    averages over their speeds as a study's pooled data do."""
     out: dict[float, list[float]] = {}
     for mu in mu_values:
         out[mu] = [
-            simulate_stimulus(mu, study_params, display, travel_px, obs.stroke(0.0), string)
-            for _ in range(strokes)
+            simulate_stimulus(
+                mu,
+                study_params,
+                display,
+                travel_px,
+                Observer(observer_params, seed * 1000 + i).stroke(0.0),
+                string,
+            )
+            for i in range(strokes)
         ]
     return out
 
@@ -307,6 +316,34 @@ def true_curve(
     return out
 
 
+def logistic_truth(curve: dict[float, float]) -> tuple[float, float]:
+    """PSE and JND of the paper's logistic f(x) = 1/(1+exp(-A(x-B))) closest to `curve`.
+
+    The observer's curve is not exactly logistic in mu_s (its sensation is
+    logarithmic in a discrepancy that grows like mu_s or its square root), so
+    what a logistic fit to its answers converges to, with equally many trials
+    per level, is the logistic maximising the expected log-likelihood of the
+    true proportions: a logistic regression on fractional responses, solved
+    here by iteratively reweighted least squares. PSE = B, JND = ln 3 / A
+    (the 75% point minus the PSE), as in the paper.
+    """
+    xs = sorted(curve)
+    alpha, beta = 0.0, 1.0
+    for _ in range(100):
+        g0 = g1 = h00 = h01 = h11 = 0.0
+        for x in xs:
+            f = 1.0 / (1.0 + math.exp(-(alpha + beta * x)))
+            r, w = curve[x] - f, f * (1.0 - f)
+            g0, g1 = g0 + r, g1 + r * x
+            h00, h01, h11 = h00 + w, h01 + w * x, h11 + w * x * x
+        det = h00 * h11 - h01 * h01
+        da, db = (h11 * g0 - h01 * g1) / det, (h00 * g1 - h01 * g0) / det
+        alpha, beta = alpha + da, beta + db
+        if abs(da) + abs(db) < 1e-12:
+            break
+    return -alpha / beta, math.log(3.0) / beta
+
+
 def pse_jnd(curve: dict[float, float]) -> tuple[float, float]:
     """PSE (the 50% point) and JND (75% point minus PSE), by linear interpolation."""
 
@@ -334,8 +371,9 @@ def true_stevens(
 ) -> tuple[float, float, dict[float, float]]:
     """(k, beta, mean ratio per mu_s): the Stevens power law this observer follows.
 
-    The mean ratio is E[(S_c/S_s)^a] times the log-normal mean; k and beta come
-    from a least-squares line through log ratio against log mu_s."""
+    The mean ratio is E[(S_c/S_s)^a] times the log-normal mean; k and beta are
+    the least-squares fit of k * mu_s^beta to those means (Gauss-Newton from
+    the log-log line), as Stevens' law is fitted to a study's level means."""
     p = observer_params
     mus = sorted({*mu_values, standard_mu_s})
     shown = shown_discrepancies(p, mus, study_params, display, travel_px, True, strokes)
@@ -351,4 +389,17 @@ def true_stevens(
         (x - mx) ** 2 for x in xs
     )
     k = math.exp(my - beta * mx)
+    for _ in range(50):
+        g0 = g1 = h00 = h01 = h11 = 0.0
+        for mu in mu_values:
+            f = k * mu**beta
+            r = mean[mu] - f
+            jk, jb = mu**beta, f * math.log(mu)
+            g0, g1 = g0 + jk * r, g1 + jb * r
+            h00, h01, h11 = h00 + jk * jk, h01 + jk * jb, h11 + jb * jb
+        det = h00 * h11 - h01 * h01
+        dk, db = (h11 * g0 - h01 * g1) / det, (h00 * g1 - h01 * g0) / det
+        k, beta = k + dk, beta + db
+        if abs(dk) + abs(db) < 1e-13:
+            break
     return k, beta, mean

@@ -111,12 +111,9 @@ def simulate_participant(
     seed: int,
     params: ObserverParams,
     record: bool = False,
-    stop_after: int | None = None,
     progress: Callable[[str], None] | None = None,
 ) -> Path:
-    """Run (or continue) one simulated participant; returns their CSV path.
-
-    `stop_after`: leave after that many trials this run (tests of resuming)."""
+    """Run (or continue) one simulated participant; returns their CSV path."""
     first = scene_toml(study, study.standard_mu_s, study.strings[0])
     with SteeredDaemon(first) as daemon:
         clock = _Clock(daemon)
@@ -144,10 +141,7 @@ def simulate_participant(
             if session.state == "instructions":
                 session.press("start")
             shown = [0.0, 0.0]
-            done_here = 0
-            while session.state not in ("done",):
-                if stop_after is not None and done_here >= stop_after:
-                    break
+            while session.state != "done":
                 scene = session.pending_scene()
                 if scene is not None:
                     daemon.request("set_scene", toml=scene)
@@ -159,7 +153,6 @@ def simulate_participant(
                     shown[index] = _stimulus(daemon, session, observer)
                 elif session.state == "answer":
                     _answer(session, observer, shown, clock)
-                    done_here += 1
                     if progress is not None and session.position % 10 == 0:
                         progress(f"{participant}: {session.position}/{len(session.schedule)}")
                 else:
