@@ -113,7 +113,9 @@ def synthetic(name: str = "demo", realtime: bool = True, loop: bool = False) -> 
         return _steered(realtime)
     if name not in SCRIPTS:
         known = ", ".join(sorted(SCRIPTS))
-        raise DeviceError(f"unknown synthetic stroke {name!r}; known: {known}")
+        raise DeviceError(
+            f"unknown synthetic stroke {name!r}; known: {known} (or {STDIN}: a steered pen)"
+        )
     tablet = SyntheticTablet()
     stream = ReportStream(tablet.descriptor, f"synthetic {name}")
     return ReportSource(f"synthetic-{name}", stream, tablet.reports(name, loop), realtime)
