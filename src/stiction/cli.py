@@ -31,6 +31,7 @@ COMMAND_MODULES = (
     "stiction.demo",
     "stiction.setup.cli",
     "stiction.trace_cli",
+    "stiction.experiment.cli",
 )
 
 

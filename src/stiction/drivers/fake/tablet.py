@@ -102,11 +102,37 @@ class SyntheticTablet:
             offset += period
 
 
+STDIN = "stdin"
+"""The name of the steered pen: states read from the daemon's standard input (feed.py)."""
+
+
 def synthetic(name: str = "demo", realtime: bool = True, loop: bool = False) -> ReportSource:
-    """A SampleSource playing the named script ("stroke", "circles", "demo")."""
+    """A SampleSource playing the named script ("stroke", "circles", "demo"), or
+    "stdin": pen states written by another program (stiction.drivers.fake.feed)."""
+    if name == STDIN:
+        return _steered(realtime)
     if name not in SCRIPTS:
         known = ", ".join(sorted(SCRIPTS))
-        raise DeviceError(f"unknown synthetic stroke {name!r}; known: {known}")
+        raise DeviceError(
+            f"unknown synthetic stroke {name!r}; known: {known} (or {STDIN}: a steered pen)"
+        )
     tablet = SyntheticTablet()
     stream = ReportStream(tablet.descriptor, f"synthetic {name}")
     return ReportSource(f"synthetic-{name}", stream, tablet.reports(name, loop), realtime)
+
+
+def _steered(realtime: bool) -> ReportSource:
+    """The pen steered through stdin. Under the real clock its samples are released
+    at their time stamps' spacing from the first one, as a scripted stroke's are: the
+    daemon maps a live device's times by when samples arrive, so a writer that writes
+    ahead must be paced here. Under the virtual clock the time stamps are the clock."""
+    import sys
+    import threading
+
+    from stiction.drivers.fake.feed import read_states
+
+    tablet = SyntheticTablet()
+    stream = ReportStream(tablet.descriptor, "synthetic stdin")
+    stop = threading.Event()
+    reports = ((s.t, tablet.encode(s)) for s in read_states(sys.stdin.buffer, stop))
+    return ReportSource("synthetic-stdin", stream, reports, realtime=realtime, on_close=stop.set)
