@@ -82,6 +82,28 @@ def size_mm(text: str) -> tuple[float, float]:
     return size
 
 
+def size_m(text: str) -> tuple[float, float]:
+    """`WxH` in millimetres, returned in metres (what the HID factories take)."""
+    w, h = size_mm(text)
+    return w / 1000.0, h / 1000.0
+
+
+def add_size_mm_option(
+    parser: argparse.ArgumentParser, *, metres: bool = False, when: str = "if not reported"
+) -> None:
+    """`--size-mm WxH` (old name `--size`) into `args.size`, in mm or metres; and
+    `size_how`, so that a missing size is reported naming this flag."""
+    parser.add_argument(
+        "--size-mm",
+        "--size",
+        dest="size",
+        type=size_m if metres else size_mm,
+        metavar="WxH",
+        help=f"active area in mm, {when} (--size: the old name)",
+    )
+    parser.set_defaults(size_how=SIZE_MM_FLAG)
+
+
 def int_range(low: int, high: int) -> Callable[[str], int]:
     """A whole number in [low, high] (a priority, a port)."""
 

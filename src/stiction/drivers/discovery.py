@@ -154,32 +154,44 @@ def hidraw_size(info: DeviceInfo) -> str | None:
         return "vendor-init"
     if info.problem is None:
         return "descriptor"  # discovery built the report mapping: the size is known
+    maps = hidraw_maps(info, None)
+    if maps is None:
+        return None
+    return "descriptor" if maps[0] else "" if maps[1] else None
+
+
+def hidraw_maps(info: DeviceInfo, size_m: tuple[float, float] | None) -> tuple[bool, bool] | None:
+    """Whether the live node's descriptor maps to contacts with `size_m` (None: with
+    what it and the catalogue know), and whether it maps given any size; None when
+    the node cannot be read. The second answer tells "lacks a size" from "is not
+    a pen at all", for discovery and `stiction doctor` alike."""
     import hidraw
 
     from stiction.drivers.hid.descriptor import parse_descriptor
+    from stiction.drivers.hid.devices import lookup
     from stiction.drivers.hid.stream import ReportStream
 
     dev = hidraw.device()
     try:
         dev.open_path(info.path.encode())
-        raw = entry.descriptor if entry and entry.descriptor else bytes(dev.get_report_descriptor())
-        desc = parse_descriptor(raw)
+        raw = bytes(dev.get_report_descriptor())
+        entry = lookup(info.vid, info.pid, name=info.name, descriptor=raw)
+        desc = parse_descriptor(entry.descriptor if entry and entry.descriptor else raw)
     except (OSError, ValueError, StictionError):
         return None
     finally:
         with contextlib.suppress(OSError, ValueError):
             dev.close()
-    try:
-        ReportStream(desc, info.name, None, entry)
-    except StictionError:
-        pass
-    else:
-        return "descriptor"
-    try:
-        ReportStream(desc, info.name, (0.1, 0.1), entry)  # maps with a size: it lacks one
-    except StictionError:
-        return None
-    return ""
+
+    def maps(size: tuple[float, float] | None) -> bool:
+        try:
+            ReportStream(desc, info.name, size, entry)
+        except StictionError:
+            return False
+        return True
+
+    given = maps(size_m)
+    return given, given or maps((0.1, 0.1))
 
 
 def _usable(info: DeviceInfo) -> bool:

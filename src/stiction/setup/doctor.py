@@ -266,34 +266,10 @@ def _usb_node(path: str) -> str | None:
 
 def _hid_lacks_size(info: DeviceInfo, size_m: tuple[float, float] | None) -> bool:
     """True if the descriptor maps with some size but not with the one known (if any)."""
-    import hidraw
+    from stiction.drivers.discovery import hidraw_maps
 
-    from stiction.drivers.hid.descriptor import parse_descriptor
-    from stiction.drivers.hid.devices import lookup
-    from stiction.drivers.hid.stream import ReportStream
-
-    entry = lookup(info.vid, info.pid)
-    dev = hidraw.device()
-    try:
-        dev.open_path(info.path.encode())
-        raw = entry.descriptor if entry and entry.descriptor else bytes(dev.get_report_descriptor())
-        desc = parse_descriptor(raw)
-    except (OSError, ValueError, StictionError):
-        return False
-    finally:
-        with contextlib.suppress(OSError, ValueError):
-            dev.close()
-    try:
-        ReportStream(desc, info.name, size_m, entry)
-    except StictionError:
-        pass
-    else:
-        return False
-    try:
-        ReportStream(desc, info.name, (0.1, 0.1), entry)
-    except StictionError:
-        return False
-    return True
+    maps = hidraw_maps(info, size_m)
+    return maps is not None and not maps[0] and maps[1]
 
 
 def check_hidraw(info: DeviceInfo, conf: Configured, config: Path) -> Finding:

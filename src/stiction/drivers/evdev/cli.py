@@ -14,20 +14,8 @@ import time
 from collections.abc import Iterable, Iterator
 from typing import Any, TextIO
 
-from stiction.argtypes import SIZE_MM_FLAG, size_mm
+from stiction.argtypes import add_size_mm_option
 from stiction.errors import StictionError
-
-
-def _add_size_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--size-mm",
-        "--size",
-        dest="size",
-        type=size_mm,
-        metavar="WxH",
-        help="active area in mm, if not reported (--size: the old name)",
-    )
-    parser.set_defaults(size_how=SIZE_MM_FLAG)
 
 
 def register(sub: argparse._SubParsersAction[Any]) -> None:
@@ -52,7 +40,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     d.add_argument(
         "--realtime", action="store_true", help="print at the recorded pace (default: at once)"
     )
-    _add_size_option(d)
+    add_size_mm_option(d)
     d.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     d.add_argument(
         "--index",
@@ -71,7 +59,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     r.add_argument("--json", action="store_true", help="one JSON object per frame")
     r.add_argument("--grab", action="store_true", help="take the device exclusively")
     r.add_argument("--frames", type=int, metavar="N", help="stop after N frames")
-    _add_size_option(r)
+    add_size_mm_option(r)
     r.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     r.set_defaults(func=_read)
 

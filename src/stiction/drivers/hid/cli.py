@@ -7,13 +7,8 @@ import json
 import sys
 from typing import Any
 
-from stiction.argtypes import SIZE_MM_FLAG, size_mm
+from stiction.argtypes import SIZE_MM_FLAG, add_size_mm_option
 from stiction.errors import SizeUnknown, StictionError
-
-
-def _size_m(text: str) -> tuple[float, float]:
-    w, h = size_mm(text)
-    return w / 1000.0, h / 1000.0
 
 
 def _usb_string(text: str) -> tuple[int, str]:
@@ -208,19 +203,6 @@ def _record(args: argparse.Namespace) -> int:
     return 0
 
 
-def _add_size_option(parser: argparse.ArgumentParser) -> None:
-    parser.add_argument(
-        "--size-mm",
-        "--size",
-        dest="size",
-        type=_size_m,
-        metavar="WxH",
-        help="active area in mm when the descriptor and device table lack it "
-        "(--size: the old name)",
-    )
-    parser.set_defaults(size_how=SIZE_MM_FLAG)
-
-
 def register(sub: argparse._SubParsersAction[Any]) -> None:
     hid = sub.add_parser("hid", help="inspect HID report descriptors and recordings")
     hsub = hid.add_subparsers(dest="hid_command", metavar="SUBCOMMAND", required=True)
@@ -239,13 +221,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     e = hsub.add_parser("decode", help="decode every recorded report of a .hid file")
     e.add_argument("file", help="hid-recorder file (N:, I:, R:, E: lines)")
     e.add_argument("--json", action="store_true", help="one JSON object per report")
-    _add_size_option(e)
+    add_size_mm_option(e, metres=True, when="when the descriptor and catalogue lack it")
     e.set_defaults(func=_decode)
     r = hsub.add_parser("read", help="print the pen/touch samples of a live hidraw device")
     r.add_argument("device", help="/dev/hidrawN, or vid:pid (e.g. 28bd:0907)")
     r.add_argument("--json", action="store_true", help="one JSON object per sample")
     r.add_argument("--count", type=int, default=0, help="stop after N samples")
-    _add_size_option(r)
+    add_size_mm_option(r, metres=True, when="when the descriptor and catalogue lack it")
     r.set_defaults(func=_read)
     rec = hsub.add_parser(
         "record",
