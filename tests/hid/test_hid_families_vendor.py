@@ -290,3 +290,17 @@ def test_an_xp_pen_family_goes_to_the_vendor_interface_not_the_firmware_pen(
     star = lookup(0x28BD, 0x0907, descriptor=m708)
     assert star is not None and star.family is None
     assert lookup(0x28BD, 0x0907, descriptor=_VENDOR_10).family == "xp-pen"  # type: ignore[union-attr]
+
+
+def test_the_family_count_in_the_docs_is_the_catalogues() -> None:
+    """docs/devices.md states how many generated entries have a family: it must be true."""
+    import re
+
+    from stiction.drivers.catalogue import load
+
+    page = (Path(__file__).resolve().parents[2] / "docs" / "devices.md").read_text("utf-8")
+    m = re.search(r"that is (\d+) of (\d+) entries", page)
+    assert m is not None
+    entries = load.generated()
+    with_family = sum(1 for e in entries if "family" in e.effects)
+    assert (int(m.group(1)), int(m.group(2))) == (with_family, len(entries))
