@@ -304,3 +304,21 @@ def test_the_family_count_in_the_docs_is_the_catalogues() -> None:
     entries = load.generated()
     with_family = sum(1 for e in entries if "family" in e.effects)
     assert (int(m.group(1)), int(m.group(2))) == (with_family, len(entries))
+
+
+def test_a_huion_family_leaves_the_firmware_pen_interface_to_the_initialisation(
+    hid_data: Path,
+) -> None:
+    """Huion H640P (256c:006d, string 201 HUION_T173_...): uclogic-tilt in the
+    catalogue, but on a firmware pen interface (the real HS610 descriptor in
+    huion-hs610.hid: a 10-byte pen report it reads itself) the family stays off
+    and the string-descriptor initialisation reads the vendor mode, as before."""
+    from stiction.drivers.hid.devices import lookup
+
+    strings = {201: "HUION_T173_230101"}
+    bare = lookup(0x256C, 0x006D, strings)
+    assert bare is not None and bare.family == "uclogic-tilt"
+    hs610 = load_recording(hid_data / "huion-hs610.hid").descriptor
+    live = lookup(0x256C, 0x006D, strings, descriptor=hs610)
+    assert live is not None and live.family is None
+    assert live.init == "huion-string-descriptor" and live.descriptor is None
