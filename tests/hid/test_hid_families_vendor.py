@@ -7,7 +7,9 @@ Which data each family is tested on:
   the tablets' own descriptors read after the in-range fix-up of uclogic.py.
 - ``xp-pen``: the REAL recording ugee-m708-v2.hid (report 7 in the
   firmware's mode, whose own descriptor declares the bits of the UGEE v2
-  template), sample for sample against that descriptor.
+  template), sample for sample against that descriptor; its vendor report 2
+  on reports copied from public issue dumps (DIGImend issue #351,
+  OpenTabletDriver issue #3850) and on reports built from the template.
 - ``uclogic`` (v2, report 8), ``uclogic-tilt``, ``uclogic-v2``: no recording
   of the v2 mode is in ../shared/data/hid; reports are built from the
   layout of Linux hid-uclogic's v2 template (module docstring) and
@@ -192,6 +194,24 @@ def test_xp_pen_vendor_report_frames_out_of_range_and_wide_x() -> None:
     wide = FAMILIES["xp-pen"](Geometry(121920, 68580, 8191, 527.0, 296.0))
     far = wide(bytes([2, 0xA0, 0x40, 0xDB, 0, 0, 0, 0, 0, 0, 0x01, 0x00]))
     assert far is not None and far.x == 0x1DB40
+
+
+def test_xp_pen_reads_the_eraser_reports_of_a_public_issue_dump() -> None:
+    """Reports copied from the dump in OpenTabletDriver issue #3850 (XP-Pen Artist
+    16 gen 2, 28bd:094c, vendor mode): the eraser end hovering, then leaving."""
+    read = FAMILIES["xp-pen"](Geometry(68198, 38362, 8191, 344.0, 193.5))
+    hover = read(bytes.fromhex("02a86c4eae36000007170000"))
+    assert hover == PenState(20076, 13998, 0, False, True, eraser=True, tilt_x=7, tilt_y=23)
+    gone = read(bytes.fromhex("02c02c4eb837000006240000"))
+    assert gone == PenState(20012, 14264, 0, False, False)
+
+
+def test_xp_pen_reads_the_vendor_mode_dump_of_a_digimend_issue() -> None:
+    """Reports copied from DIGImend/digimend-kernel-drivers issue #351 (XP-Pen
+    Artist Pro 12, 28bd:091f, after 02 b0 04): a frame report, then hovering."""
+    read = FAMILIES["xp-pen"](Geometry(50800, 30480, 8191, 256.0, 144.0))
+    assert read(bytes.fromhex("02f000000000000000000000")) is None
+    assert read(bytes.fromhex("02a0b0201d14000000000000")) == PenState(8368, 5149, 0, False, True)
 
 
 def test_kye_layout_report_0x10() -> None:

@@ -22,7 +22,10 @@ layouts are taken, and checked against the DIGImend/tablets dumps in
 - UGEE v2 / XP-Pen (``uclogic_rdesc_ugee_v2_pen_template_arr``): report
   ID 2 in vendor mode. Byte 1: bit 0 tip, bit 1 barrel, bit 2 "tablet
   pick" (the second button), bit 5 in range; byte 1 of ``0xf0`` and above
-  is a frame report. X, Y little-endian 16-bit at bytes 2-5, pressure at
+  is a frame report. Bit 3, constant in the kernel's template, is set while
+  the eraser end is in range on the 2nd-generation Artist displays
+  (``02 a8 ...`` reports dumped in OpenTabletDriver issue #3850, XP-Pen
+  Artist 16 gen 2), so it is read as the eraser. X, Y little-endian 16-bit at bytes 2-5, pressure at
   6-7 in as many bits as the tablet's range needs (13 for 8191 levels),
   tilt X and Y signed bytes at 8 and 9. The same bits in report ID 7 are
   the firmware's own mode, which its descriptor declares (DIGImend
@@ -43,6 +46,7 @@ UGEE_FIRMWARE_ID = 0x07
 _FRAME = 0x20  # UC-Logic: byte 1 bit 5 marks a frame (pad) report
 _V1_AWAY = 0x40  # UC-Logic v1: in-range bit, set while the pen is away
 _UGEE_IN_RANGE = 0x20
+_UGEE_ERASER = 0x08
 _UGEE_FRAME = 0xF0
 
 
@@ -113,6 +117,7 @@ def xp_pen(geom: Geometry) -> Reader:
         tip, barrel, barrel2 = _buttons(d[1])
         tx, ty = (s8(d[8]), s8(d[9])) if len(d) >= 10 else (0, 0)
         p = u16le(d, 6) & pressure_mask
-        return PenState(x, y, p, tip, True, barrel, barrel2, tilt_x=tx, tilt_y=ty)
+        eraser = bool(d[1] & _UGEE_ERASER)
+        return PenState(x, y, p, tip, True, barrel, barrel2, eraser, tx, ty)
 
     return read
