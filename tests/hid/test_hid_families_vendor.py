@@ -342,3 +342,20 @@ def test_a_huion_family_leaves_the_firmware_pen_interface_to_the_initialisation(
     live = lookup(0x256C, 0x006D, strings, descriptor=hs610)
     assert live is not None and live.family is None
     assert live.init == "huion-string-descriptor" and live.descriptor is None
+
+
+def test_the_artist_10s_needs_no_family_its_descriptor_reads_it(hid_data: Path) -> None:
+    """XP-Pen Artist 10S (5543:004a; OpenTabletDriver's UCLogicV1 parser, left
+    without a family): in the real recording the in-range bit is NOT inverted
+    (0xc0/0xc1 while drawing, 0x80 when the pen leaves), so its own descriptor
+    reads it and the UC-Logic v1 family, which inverts the bit, would not."""
+    from stiction.drivers.hid.devices import lookup
+
+    rec = load_recording(hid_data / "xp-pen-artist-10s.hid")
+    entry = lookup(rec.vid, rec.pid, descriptor=rec.descriptor)
+    assert entry is not None and entry.family is None and entry.parser == "UCLogicV1ReportParser"
+    stream = ReportStream(parse_descriptor(rec.descriptor), rec.name, None, entry)
+    samples = [s for ev in rec.events for s in stream.feed(ev.t, ev.data)]
+    tips = [s for s in samples if s.tip]
+    assert len(tips) > 2000 and all(s.in_range for s in tips)
+    assert any(not s.in_range for s in samples)
