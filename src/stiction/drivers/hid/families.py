@@ -9,7 +9,12 @@ that the rest of the HID path (decoder, pen mapping, ReportStream) already
 understands. A family therefore needs no decoder of its own: it is a fix-up
 plus a descriptor, like the UC-Logic modes in uclogic.py.
 
-The layouts follow the public descriptions of these protocols in Linux's
+This module holds the Wacom families, the registry (`FAMILIES`, and
+`OTD_PARSERS` for the catalogue generator) and the normalised report. The
+vendor-mode families of other makers are in families_uclogic.py (Huion,
+Gaomon and UC-Logic; XP-Pen) and families_kye_veikk.py (Genius; VEIKK).
+
+The Wacom layouts follow the public descriptions of these protocols in Linux's
 drivers/hid/wacom_wac.c (GPL-2.0; only the byte layouts are taken, as facts,
 and written here anew):
 
