@@ -248,8 +248,17 @@ def test_veikk_layout_agrees_with_the_real_s640_descriptor(hid_data: Path) -> No
     assert sum(s.tip for s in b) == 90 and not b[-1].in_range
 
 
+# Arbitrary bytes, half of them behind a report ID some vendor family reads.
+_ANY_REPORT = st.one_of(
+    st.binary(max_size=20),
+    st.tuples(st.sampled_from([1, 2, 7, 8, 0x10]), st.binary(max_size=19)).map(
+        lambda t: bytes([t[0]]) + t[1]
+    ),
+)
+
+
 @pytest.mark.parametrize("family", VENDOR)
-@given(data=st.binary(max_size=20))
+@given(data=_ANY_REPORT)
 def test_any_bytes_give_nothing_or_a_state_within_the_geometry(family: str, data: bytes) -> None:
     geom = Geometry(50800, 31750, 8191, 254.0, 158.75)
     out = fixup(family, geom)(data)
