@@ -65,7 +65,9 @@ def _effects(tablet: Mapping[str, Any], ident: Mapping[str, Any]) -> dict[str, o
     }
     if vid in HUION_INIT_VIDS and set(ident["init_strings"]) & set(HUION_INIT_STRINGS):
         eff["init"] = "huion-string-descriptor"
-    family = family_for(ident["report_parser"], tablet["name"], vid, pid)
+    family = family_for(
+        ident["report_parser"], tablet["name"], vid, pid, ident["input_report_length"]
+    )
     if family is not None:
         eff["family"] = family
     return {k: v for k, v in eff.items() if v not in ([], None)}

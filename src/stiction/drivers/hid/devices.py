@@ -78,20 +78,33 @@ def family_fits(eff: Mapping[str, object], own: bytes) -> bool:
     A tablet's pen and touch interfaces share its vid:pid; OpenTabletDriver
     tells them apart by input report length (report ID byte included, as
     hidraw delivers reports), so a family goes only where the device's own
-    descriptor declares an input report that long. An unparsable descriptor
-    keeps the family (it may be why the entry exists).
+    descriptor declares an input report that long, and one it does not
+    already describe as a pen: an XP-Pen's firmware pen interface declares
+    its 10-byte pen report in full, and is read by it, while the vendor-mode
+    report the family reads comes on another interface. Without a length
+    (the models sharing the id disagree on it) the family goes only where
+    the descriptor describes no pen at all. An unparsable descriptor keeps
+    the family (it may be why the entry exists).
     """
     from stiction.drivers.hid.descriptor import parse_descriptor
-    from stiction.errors import DescriptorError
+    from stiction.drivers.hid.pen import build_mappings
+    from stiction.errors import DescriptorError, DeviceError
 
-    length = eff.get("report_length")
-    if "family" not in eff or not isinstance(length, int):
+    if "family" not in eff:
         return True
     try:
-        reports = parse_descriptor(own).input_reports.values()
+        desc = parse_descriptor(own)
     except DescriptorError:
         return True
-    return any(rep.byte_size == length for rep in reports)
+    try:
+        readable = build_mappings(desc, "family check", (1.0, 1.0))
+    except DeviceError:
+        readable = {}
+    length = eff.get("report_length")
+    if not isinstance(length, int):  # models of this id disagree on it
+        return not readable
+    fitting = [rid for rid, rep in desc.input_reports.items() if rep.byte_size == length]
+    return any(rid not in readable for rid in fitting)
 
 
 def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:

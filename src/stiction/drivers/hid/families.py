@@ -9,7 +9,12 @@ that the rest of the HID path (decoder, pen mapping, ReportStream) already
 understands. A family therefore needs no decoder of its own: it is a fix-up
 plus a descriptor, like the UC-Logic modes in uclogic.py.
 
-The layouts follow the public descriptions of these protocols in Linux's
+This module holds the Wacom families, the registry (`FAMILIES`, and
+`OTD_PARSERS` for the catalogue generator) and the normalised report. The
+vendor-mode families of other makers are in families_uclogic.py (Huion,
+Gaomon and UC-Logic; XP-Pen) and families_kye_veikk.py (Genius; VEIKK).
+
+The Wacom layouts follow the public descriptions of these protocols in Linux's
 drivers/hid/wacom_wac.c (GPL-2.0; only the byte layouts are taken, as facts,
 and written here anew):
 
@@ -48,7 +53,23 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
-from dataclasses import dataclass
+
+from stiction.drivers.hid import families_kye_veikk as _kye_veikk
+from stiction.drivers.hid import families_uclogic as _uclogic
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+
+__all__ = [
+    "FAMILIES",
+    "NORMAL_ID",
+    "OTD_PARSERS",
+    "Geometry",
+    "PenState",
+    "Reader",
+    "descriptor",
+    "family_for",
+    "fixup",
+    "normalise",
+]
 
 NORMAL_ID = 0x02
 """Report ID of the normalised pen report (the one report the generated descriptor has)."""
@@ -57,47 +78,11 @@ _NORMAL = struct.Struct("<BBIIH")  # id, flags, x, y, pressure
 TIP, BARREL, BARREL2, ERASER, IN_RANGE = 0x01, 0x02, 0x04, 0x08, 0x10
 
 
-@dataclass(frozen=True, slots=True)
-class Geometry:
-    """What the family's reports cannot say about themselves: ranges and the active area."""
-
-    max_x: int
-    max_y: int
-    max_pressure: int
-    width_mm: float
-    height_mm: float
-    source: str = ""
-
-
-@dataclass(frozen=True, slots=True)
-class PenState:
-    x: int
-    y: int
-    pressure: int
-    tip: bool
-    in_range: bool
-    barrel: bool = False
-    barrel2: bool = False
-    eraser: bool = False
-
-
-Reader = Callable[[bytes], PenState | None]
-"""One raw report -> the pen it describes, or None for a report that is not the pen's."""
-
-
-def _u16le(d: bytes, i: int) -> int:
-    return d[i] | (d[i + 1] << 8)
-
-
-def _s8(v: int) -> int:
-    return v - 256 if v > 127 else v
-
-
 def _penpartner(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 7 or d[0] not in (1, 2):
             return None
-        x, y, p = _u16le(d, 1), _u16le(d, 3), _s8(d[6])
+        x, y, p = u16le(d, 1), u16le(d, 3), s8(d[6])
         eraser = bool(d[5] & 0x20)
         if d[0] == 1:
             if not d[5] & 0x80:
@@ -113,7 +98,7 @@ def _graphire(geom: Geometry) -> Reader:
         if len(d) < 8 or d[0] != 2:
             return None
         tool = (d[1] >> 5) & 3
-        x, y = _u16le(d, 2), _u16le(d, 4)
+        x, y = u16le(d, 2), u16le(d, 4)
         if not d[1] & 0x80:
             return PenState(x, y, 0, False, False)
         if tool >= 2:  # a mouse on the tablet: not a pen
@@ -140,13 +125,13 @@ def _bpt(geom: Geometry) -> Reader:
             return None
         in_range, valid, buttons = bool(d[1] & 0x80), bool(d[1] & 0x40), bool(d[1] & 0x20)
         if valid:
-            last[0], last[1] = _u16le(d, 2), _u16le(d, 4)
+            last[0], last[1] = u16le(d, 2), u16le(d, 4)
         if not in_range:
             return PenState(last[0], last[1], 0, False, False)
         return PenState(
             last[0],
             last[1],
-            _u16le(d, 6) if buttons else 0,
+            u16le(d, 6) if buttons else 0,
             buttons and bool(d[1] & 0x01),
             True,
             buttons and bool(d[1] & 0x02),
@@ -195,7 +180,7 @@ def _ptu(geom: Geometry) -> Reader:
         if len(d) < 8 or d[0] != 2:
             return None
         eraser = bool(d[1] & 0x04)
-        x, y, p = _u16le(d, 2), _u16le(d, 4), _u16le(d, 6)
+        x, y, p = u16le(d, 2), u16le(d, 4), u16le(d, 6)
         if not d[1] & 0x20:
             return PenState(x, y, 0, False, False)
         tip = bool(d[1] & (0x08 if eraser else 0x01))
@@ -223,7 +208,7 @@ def _pl(geom: Geometry) -> Reader:
         elif tool["eraser"] and not d[4] & 0x20:
             tool["eraser"] = False
         eraser = bool(tool["eraser"])
-        p = _s8(((d[7] << 1) | ((d[4] >> 2) & 1)) & 0xFF)
+        p = s8(((d[7] << 1) | ((d[4] >> 2) & 1)) & 0xFF)
         if geom.max_pressure > 255:
             p = (p << 1) | ((d[4] >> 6) & 1)
         barrel2 = not eraser and bool(d[4] & 0x20)
@@ -246,6 +231,12 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "wacom-intuos1": _intuos1,
     "wacom-ptu": _ptu,
     "wacom-pl": _pl,
+    "uclogic": _uclogic.uclogic,
+    "uclogic-tilt": _uclogic.uclogic_tilt,
+    "uclogic-v2": _uclogic.uclogic_v2,
+    "xp-pen": _uclogic.xp_pen,
+    "kye": _kye_veikk.kye,
+    "veikk": _kye_veikk.veikk,
 }
 
 OTD_PARSERS: dict[str, str] = {
@@ -257,6 +248,14 @@ OTD_PARSERS: dict[str, str] = {
     "Intuos4ReportParser": "wacom-intuos",
     "PTUReportParser": "wacom-ptu",
     "PLReportParser": "wacom-pl",
+    "UCLogicReportParser": "uclogic",
+    "UCLogicTiltReportParser": "uclogic-tilt",
+    "GianoReportParser": "uclogic-tilt",
+    "UCLogicV2ReportParser": "uclogic-v2",
+    "XP_PenReportParser": "xp-pen",
+    "XP_PenOffsetPressureReportParser": "xp-pen",
+    "GeniusReportParser": "kye",
+    "VeikkV1ReportParser": "veikk",
 }
 """OpenTabletDriver's report parser name -> the family that reads the same protocol.
 
@@ -265,12 +264,37 @@ products: Graphire and Bamboo parsers cover the GRAPHIRE, G4 and MO types;
 "Intuos" covers Bamboo Pen & Touch and the INTUOSHT types (the BPT packet);
 IntuosV1, Intuos3 and Intuos4 cover the Intuos packet. `family_for` applies
 the two exceptions where one OpenTabletDriver parser spans two protocols.
+
+The vendor parsers: Linux's hid-uclogic reads every tablet that answers USB
+string 200 (the Huion/Gaomon pen tablets and Kamvas displays alike, whichever
+of UCLogic, UCLogicTilt, Giano or UCLogicV2 OpenTabletDriver names) with one
+v2 layout, and string 100 tablets with the v1 layout; the ones named Tilt or
+Giano are read with their tilt bytes. XP-Pen's own parser and its
+"offset pressure" variant both get the UGEE v2 layout, which hid-uclogic
+uses for the XP-Pen Deco L (28bd:0935) that OpenTabletDriver gives the
+latter; `family_for` keeps it off 8-byte reports, a different layout.
+Genius is hid-kye's report 0x10; VEIKK's first firmware the S640 layout.
+
+Left without a family, for want of a public description of their layout:
+XP_PenGen2 (14-byte reports, 16K pressure), XP_PenOffsetAux, GeniusV2
+(Waltop "tablet" mode), Veikk and VeikkTilt (13-byte vendor reports),
+HuionTilt, and UCLogicV1 (the XP-Pen Artist 10S, whose firmware descriptor
+describes its reports: see the recording xp-pen-artist-10s.hid).
 """
 
+XP_PEN_LENGTHS = range(10, 17)
+"""Report lengths (ID byte included) of the UGEE v2 layout: 10 bytes, or 12-16
+where the tablet appends bytes (X's high bits on the widest)."""
 
-def family_for(parser: str, name: str, vid: int, pid: int) -> str | None:
-    """The family for an OpenTabletDriver entry, None where none reads its protocol."""
+
+def family_for(parser: str, name: str, vid: int, pid: int, length: int | None = None) -> str | None:
+    """The family for an OpenTabletDriver entry, None where none reads its protocol.
+
+    `length`: OpenTabletDriver's input report length for this identifier.
+    """
     family = OTD_PARSERS.get(parser)
+    if family == "xp-pen" and length not in XP_PEN_LENGTHS:
+        return None
     if family == "wacom-intuos" and name.startswith(("Wacom GD-", "Wacom XD-")):
         return "wacom-intuos1"  # Intuos 1 and 2 (the kernel's INTUOS type): half resolution
     if family == "wacom-bpt" and (vid, pid) == (0x056A, 0x006A):

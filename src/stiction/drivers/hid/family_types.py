@@ -1,0 +1,53 @@
+"""What every vendor report family shares: the tablet's geometry, the pen state a report gives.
+
+Kept apart from families.py so that the family modules (Wacom in families.py,
+UC-Logic/XP-Pen in families_uclogic.py, KYE/Veikk in families_kye_veikk.py)
+can share them without importing one another.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+
+
+@dataclass(frozen=True, slots=True)
+class Geometry:
+    """What the family's reports cannot say about themselves: ranges and the active area."""
+
+    max_x: int
+    max_y: int
+    max_pressure: int
+    width_mm: float
+    height_mm: float
+    source: str = ""
+
+
+@dataclass(frozen=True, slots=True)
+class PenState:
+    """One pen report, read. Tilt (degrees, where the protocol has it) is read for
+    completeness of the layout but not forwarded: the normalised report has no tilt,
+    as the friction model does not use it."""
+
+    x: int
+    y: int
+    pressure: int
+    tip: bool
+    in_range: bool
+    barrel: bool = False
+    barrel2: bool = False
+    eraser: bool = False
+    tilt_x: int = 0
+    tilt_y: int = 0
+
+
+Reader = Callable[[bytes], PenState | None]
+"""One raw report -> the pen it describes, or None for a report that is not the pen's."""
+
+
+def u16le(d: bytes, i: int) -> int:
+    return d[i] | (d[i + 1] << 8)
+
+
+def s8(v: int) -> int:
+    return v - 256 if v > 127 else v
