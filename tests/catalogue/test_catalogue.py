@@ -513,3 +513,15 @@ def test_the_users_overlay_sizes_an_evdev_node(tmp_path: Path, monkeypatch) -> N
     monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
     fixed = sizes.apply(node)
     assert fixed.axes[ecodes.ABS_X].resolution == pytest.approx(100.0)
+
+
+def test_the_hand_written_tables_header_names_every_family() -> None:
+    """The header of devices.toml is where people adding a device read the keys."""
+    from stiction.drivers.hid.families import FAMILIES
+
+    header = (
+        Path(__file__).resolve().parents[2] / "src/stiction/drivers/catalogue/devices.toml"
+    ).read_text(encoding="utf-8")
+    header = header[: header.index("[[device]]")]
+    missing = [f for f in FAMILIES if f'"{f}"' not in header]
+    assert not missing, f"devices.toml's header does not list {missing}"
