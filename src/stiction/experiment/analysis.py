@@ -1,0 +1,294 @@
+"""The analyses of the paper's two user studies, from per-trial CSV files.
+
+`analyze(paths)` returns one dict per (study, string condition):
+
+* 2AFC (study 1): per comparison mu_s the proportion of "comparison more
+  frictional" and its standard error across participants; the paper's
+  logistic fitted by maximum likelihood to the pooled answers and to each
+  participant's, and a fit with free guess and lapse rates; PSE, JND, A, B
+  with percentile-bootstrap 95% intervals (pooled: participants resampled
+  with replacement; one participant: trials resampled within each level).
+* ratio (study 2): the mean ratio per mu_s (participant means first) and its
+  standard error; Shapiro-Wilk per level, Mauchly's sphericity test and the
+  one-way repeated-measures ANOVA with a Greenhouse-Geisser correction where
+  sphericity is rejected (pingouin); Tukey HSD post-hoc comparisons; Stevens'
+  power function phi = k mu_s^beta by least squares on the level means.
+
+Every number in the dicts is a plain float/int/str so that `--json` prints
+them as they are and the report quotes them.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from stiction.experiment import psychometric as ps
+from stiction.experiment.trials import AnalysisError, Trial, read_trials
+
+DEFAULT_BOOTSTRAP = 1000
+ALPHA = 0.05
+
+
+def _ci(values: np.ndarray) -> list[float]:
+    finite = values[np.isfinite(values)]
+    if finite.size == 0:
+        return [math.nan, math.nan]
+    lo, hi = np.percentile(finite, [100 * ALPHA / 2, 100 * (1 - ALPHA / 2)])
+    return [float(lo), float(hi)]
+
+
+def _params(
+    a: np.ndarray, b: np.ndarray, point: tuple[float, float], ok: np.ndarray
+) -> dict[str, Any]:
+    """Point estimates and percentile intervals of A, B, PSE and JND."""
+    a_ok, b_ok = np.where(ok, a, np.nan), np.where(ok, b, np.nan)
+    jnd = np.where(ok & (a_ok != 0), ps.LN3 / np.where(a_ok != 0, a_ok, 1.0), np.nan)
+    pa, pb = point
+    return {
+        "a": pa,
+        "b": pb,
+        "pse": pb,
+        "jnd": ps.LN3 / pa if pa and math.isfinite(pa) else math.nan,
+        "a_ci": _ci(a_ok),
+        "b_ci": _ci(b_ok),
+        "pse_ci": _ci(b_ok),
+        "jnd_ci": _ci(jnd),
+    }
+
+
+def _matrix(trials: list[Trial]) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
+    """Participants, levels, and per participant x level counts of "comparison" and trials."""
+    people = sorted({t.participant for t in trials})
+    levels = np.array(sorted({t.comparison_mu_s for t in trials}))
+    k = np.zeros((len(people), len(levels)))
+    n = np.zeros((len(people), len(levels)))
+    row = {p: i for i, p in enumerate(people)}
+    col = {float(v): j for j, v in enumerate(levels)}
+    for t in trials:
+        i, j = row[t.participant], col[t.comparison_mu_s]
+        k[i, j] += t.chose_comparison or 0
+        n[i, j] += 1
+    return people, levels, k, n
+
+
+def _fit_both(levels: np.ndarray, k: np.ndarray, n: np.ndarray) -> tuple[ps.Fit, ps.Fit]:
+    mask = n > 0
+    x, kk, nn = levels[mask], k[mask], n[mask]
+    return ps.fit_logistic(x, kk, nn), ps.fit_guess_lapse(x, kk, nn)
+
+
+def _study1(
+    study: str, string: int, trials: list[Trial], rng: np.random.Generator, boots: int
+) -> dict[str, Any]:
+    people, levels, k, n = _matrix(trials)
+    if len(levels) < 3:
+        raise AnalysisError(
+            f"study {study!r}, string {string}: {len(levels)} comparison level(s); "
+            "a psychometric fit needs at least 3"
+        )
+    with np.errstate(invalid="ignore", divide="ignore"):
+        props = k / n  # NaN where a participant has no trial at a level
+    counted = np.isfinite(props).sum(axis=0)
+    se = np.array(
+        [
+            float(np.nanstd(props[:, j], ddof=1) / math.sqrt(counted[j]))
+            if counted[j] > 1
+            else math.nan
+            for j in range(len(levels))
+        ]
+    )
+    pooled_k, pooled_n = k.sum(axis=0), n.sum(axis=0)
+    paper, free = _fit_both(levels, pooled_k, pooled_n)
+
+    # Bootstrap of the pooled fit: resample participants (their between-person
+    # spread is part of the uncertainty); with one participant, resample trials.
+    if len(people) > 1:
+        pick = rng.integers(0, len(people), size=(boots, len(people)))
+        bk, bn = k[pick].sum(axis=1), n[pick].sum(axis=1)
+        resample = "participants"
+    else:
+        bn = np.broadcast_to(pooled_n, (boots, len(levels))).copy()
+        bk = rng.binomial(pooled_n.astype(int), pooled_k / pooled_n, size=(boots, len(levels)))
+        resample = "trials within each level"
+    # A resample may miss a level entirely (n = 0): it then adds nothing to the likelihood.
+    ba, bb, bok = ps.fit_fixed(levels, bk, bn)
+    ga, gb, gg, gl, gok = ps.fit_guess_lapse_many(levels, bk, bn)
+
+    pooled = _params(ba, bb, (paper.a, paper.b), bok)
+    guess_lapse = _params(ga, gb, (free.a, free.b), gok)
+    guess_lapse.update(
+        guess=free.guess,
+        lapse=free.lapse,
+        guess_ci=_ci(np.where(gok, gg, np.nan)),
+        lapse_ci=_ci(np.where(gok, gl, np.nan)),
+    )
+
+    per_participant = []
+    for i, who in enumerate(people):
+        mask = n[i] > 0
+        x, ki, ni = levels[mask], k[i][mask], n[i][mask]
+        fit = ps.fit_logistic(x, ki, ni)
+        pbk = rng.binomial(ni.astype(int), ki / ni, size=(boots, len(x)))
+        pa, pb, pok = ps.fit_fixed(x, pbk, ni)
+        entry = {"participant": who, "trials": int(ni.sum()), "converged": fit.converged}
+        entry.update(_params(pa, pb, (fit.a, fit.b), pok))
+        entry["bootstrap_failed"] = int((~pok).sum())
+        per_participant.append(entry)
+
+    out: dict[str, Any] = {
+        "study": study,
+        "method": "2afc",
+        "string": string,
+        "participants": len(people),
+        "trials": int(n.sum()),
+        "levels": [float(v) for v in levels],
+        "proportion": [float(v) for v in pooled_k / pooled_n],
+        "proportion_mean": [float(v) for v in np.nanmean(props, axis=0)],
+        "proportion_se": [float(v) for v in se],
+        "converged": paper.converged,
+    }
+    out.update(pooled)
+    out["bootstrap"] = {
+        "n": boots,
+        "resample": resample,
+        "failed": int((~bok).sum()),
+        "failed_guess_lapse": int((~gok).sum()),
+    }
+    out["guess_lapse"] = guess_lapse
+    out["per_participant"] = per_participant
+    return out
+
+
+def _study2(study: str, string: int, trials: list[Trial]) -> dict[str, Any]:
+    import pandas as pd
+    import pingouin as pg
+    from scipy.optimize import curve_fit
+
+    frame = pd.DataFrame(
+        {
+            "participant": [t.participant for t in trials],
+            "mu_s": [t.comparison_mu_s for t in trials],
+            "ratio": [t.ratio for t in trials],
+        }
+    )
+    # Each participant's mean per level is the unit of the repeated-measures design.
+    means = frame.groupby(["participant", "mu_s"], as_index=False)["ratio"].mean()
+    levels = sorted(means["mu_s"].unique())
+    people = sorted(means["participant"].unique())
+    complete = means.groupby("participant")["mu_s"].nunique() == len(levels)
+    if not complete.all():
+        gaps = ", ".join(str(p) for p in complete[~complete].index)
+        raise AnalysisError(
+            f"study {study!r}: participant(s) {gaps} lack some mu_s level; "
+            "the repeated-measures ANOVA needs every level from everyone"
+        )
+    if len(people) < 3 or len(levels) < 3:
+        raise AnalysisError(
+            f"study {study!r}: {len(people)} participant(s) and {len(levels)} level(s); "
+            "the ANOVA and Mauchly's test need at least 3 of each"
+        )
+    by_level = means.groupby("mu_s")["ratio"]
+    mean = by_level.mean().to_numpy()
+    se = (by_level.std(ddof=1) / np.sqrt(by_level.count())).to_numpy()
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # pingouin's FutureWarnings about pandas
+        normal = pg.normality(means, dv="ratio", group="mu_s", method="shapiro")
+        spher = pg.sphericity(means, dv="ratio", within="mu_s", subject="participant")
+        aov = pg.rm_anova(
+            means, dv="ratio", within="mu_s", subject="participant", correction=True
+        ).iloc[0]
+        tukey = pg.pairwise_tukey(means, dv="ratio", between="mu_s")
+
+    spherical = bool(spher.spher)
+    eps = float(aov["eps"])
+    df1, df2 = float(aov["ddof1"]), float(aov["ddof2"])
+    anova = {
+        "f": float(aov["F"]),
+        "df1": df1 if spherical else df1 * eps,
+        "df2": df2 if spherical else df2 * eps,
+        "p": float(aov["p_unc"]) if spherical else float(aov["p_GG_corr"]),
+        "correction": None if spherical else "greenhouse-geisser",
+        "p_uncorrected": float(aov["p_unc"]),
+        "p_gg": float(aov["p_GG_corr"]),
+        "eps_gg": eps,
+        "eta2_generalized": float(aov["ng2"]),
+    }
+
+    def power_law(x: np.ndarray, k: float, beta: float) -> np.ndarray:
+        return np.asarray(k * np.power(x, beta))
+
+    x = np.asarray(levels, dtype=float)
+    try:
+        (k, beta), cov = curve_fit(power_law, x, mean, p0=(1.0, 0.2))
+        k_se, beta_se = (float(v) for v in np.sqrt(np.diag(cov)))
+    except (RuntimeError, ValueError) as exc:
+        raise AnalysisError(
+            f"study {study!r}: Stevens' power function did not fit: {exc}"
+        ) from None
+    return {
+        "study": study,
+        "method": "ratio",
+        "string": string,
+        "participants": len(people),
+        "trials": len(trials),
+        "levels": [float(v) for v in levels],
+        "mean": [float(v) for v in mean],
+        "se": [float(v) for v in se],
+        "shapiro": [
+            {"mu_s": float(lvl), "w": float(r["W"]), "p": float(r["pval"])}
+            for lvl, r in normal.iterrows()
+        ],
+        "mauchly": {
+            "w": float(spher.W),
+            "chi2": float(spher.chi2),
+            "dof": int(spher.dof),
+            "p": float(spher.pval),
+            "spherical": spherical,
+        },
+        "anova": anova,
+        "tukey": [
+            {
+                "a": float(r["A"]),
+                "b": float(r["B"]),
+                "diff": float(r["diff"]),
+                "se": float(r["se"]),
+                "t": float(r["T"]),
+                "p": float(r["p_tukey"]),
+            }
+            for _, r in tukey.iterrows()
+        ],
+        "stevens": {"k": float(k), "beta": float(beta), "k_se": k_se, "beta_se": beta_se},
+    }
+
+
+def analyze_trials(
+    trials: list[Trial], seed: int = 0, bootstrap: int = DEFAULT_BOOTSTRAP
+) -> list[dict[str, Any]]:
+    """One result per (study, method, string condition), in that order."""
+    if bootstrap < 1:
+        raise AnalysisError(f"--bootstrap must be at least 1, got {bootstrap}")
+    groups: dict[tuple[str, str, int], list[Trial]] = {}
+    for t in trials:
+        groups.setdefault((t.study, t.method, t.string), []).append(t)
+    rng = np.random.default_rng(seed)
+    results = []
+    for (study, method, string), rows in sorted(groups.items()):
+        if method == "2afc":
+            results.append(_study1(study, string, rows, rng, bootstrap))
+        else:
+            results.append(_study2(study, string, rows))
+    return results
+
+
+def analyze(
+    paths: Iterable[str | Path], seed: int = 0, bootstrap: int = DEFAULT_BOOTSTRAP
+) -> list[dict[str, Any]]:
+    """Read the trial CSVs (files or directories of them) and analyse every study in them."""
+    return analyze_trials(read_trials(paths), seed=seed, bootstrap=bootstrap)
