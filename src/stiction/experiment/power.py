@@ -28,7 +28,6 @@ model differ a little in the tails; that mismatch is part of what is measured.
 
 from __future__ import annotations
 
-import math
 from dataclasses import asdict, dataclass
 from typing import Any
 
@@ -156,14 +155,21 @@ class MethodCurve:
     method: str
     trials: list[int]
     jnd_error95: list[float]
-    trials_needed: int | None  # the fewest trials of `trials` that meet the precision
+    trials_needed: int | None  # from this many trials on, every count meets the precision
 
 
 def _needed(trials: list[int], errors: list[float], precision: float) -> int | None:
-    for t, e in zip(trials, errors, strict=True):
-        if e <= precision:
-            return t
-    return None
+    """The fewest trials from which on every longer run meets the precision too.
+
+    Not merely the first count that meets it: with a finite number of
+    simulated runs the error curve is noisy, and one lucky count is no answer.
+    """
+    needed = None
+    for t, e in reversed(list(zip(trials, errors, strict=True))):
+        if e > precision:
+            break
+        needed = t
+    return needed
 
 
 def compare_methods(
@@ -199,7 +205,8 @@ def compare_methods(
 
 def as_dict(obj: Any) -> Any:
     """Dataclasses (and lists of them) as plain dicts for --json; infinities as None."""
+    from stiction.experiment.report import jsonable
+
     if isinstance(obj, list):
         return [as_dict(o) for o in obj]
-    d = asdict(obj)
-    return {k: (None if isinstance(v, float) and not math.isfinite(v) else v) for k, v in d.items()}
+    return jsonable(asdict(obj))
