@@ -98,6 +98,7 @@ def design_table(
     repetitions: list[int],
     simulations: int,
     seed: int,
+    participant_pse_sd: float = 0.0,
 ) -> list[DesignRow]:
     """The JND error for each participants x repetitions of a constant-stimuli study."""
     rng = np.random.default_rng(seed)
@@ -105,10 +106,18 @@ def design_table(
     for n_people in participants:
         for reps in repetitions:
             err = constant_stimuli_error(
-                observer, np.array(levels), n_people, reps, simulations, rng
+                observer, np.array(levels), n_people, reps, simulations, rng, participant_pse_sd
             )
             rows.append(DesignRow(n_people, reps, reps * len(levels), err, bool(err <= precision)))
     return rows
+
+
+def cheapest(rows: list[DesignRow]) -> DesignRow | None:
+    """The design that meets the precision with the fewest trials in all (then fewest people)."""
+    meeting = [r for r in rows if r.meets]
+    if not meeting:
+        return None
+    return min(meeting, key=lambda r: (r.participants * r.trials_per_participant, r.participants))
 
 
 def _quest(levels: np.ndarray, observer: Observer) -> Any:

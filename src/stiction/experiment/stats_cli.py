@@ -17,27 +17,25 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import non_negative_int, positive_float, positive_int
+from stiction.argtypes import non_negative_float, non_negative_int, positive_float, positive_int
 from stiction.errors import StictionError
 
 EXTRA_MODULES = ("numpy", "scipy", "pandas", "pingouin", "matplotlib", "questplus")
 EXTRA_HINT = "pip install 'stiction[experiment]'"
 
-# The paper's two designs (User study 1 and 2), for when no study loader is present.
+# The paper's two designs (User study 1 and 2) in the study-file schema of
+# docs/experiments.md ("Protocols"), for when the study loader is not installed.
 PRESETS: dict[str, dict[str, Any]] = {
     "paper-study1": {
-        "method": "2afc",
-        "levels": [0.0, 0.2, 0.4, 0.6, 0.8, 1.0],
-        "repetitions": 10,
-        "participants": 10,
+        "study": {"name": "paper-study1", "method": "2afc", "repetitions": 10},
+        "comparison": {"mu_s": [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]},
     },
     "paper-study2": {
-        "method": "ratio",
-        "levels": [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0],
-        "repetitions": 5,
-        "participants": 10,
+        "study": {"name": "paper-study2", "method": "ratio", "repetitions": 5},
+        "comparison": {"mu_s": [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]},
     },
 }
+PAPER_PARTICIPANTS = 10  # both user studies had 10 participants
 
 
 def _need_extra() -> None:
@@ -82,35 +80,40 @@ class Design:
     method: str
     levels: list[float]
     repetitions: int
-    participants: int
 
 
-def _from_mapping(name: str, data: dict[str, Any]) -> Design:
+def _from_toml(name: str, data: dict[str, Any]) -> Design:
     try:
-        levels = [float(v) for v in data["levels"]]
+        study = data["study"]
         return Design(
-            name,
-            str(data.get("method", "2afc")),
-            levels,
-            int(data.get("repetitions", 10)),
-            int(data.get("participants", 10)),
+            str(study.get("name", name)),
+            str(study["method"]),
+            [float(v) for v in data["comparison"]["mu_s"]],
+            int(study["repetitions"]),
         )
-    except (KeyError, TypeError, ValueError) as exc:
-        raise StictionError(f"study {name}: needs method, levels and repetitions ({exc})") from None
+    except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        raise StictionError(
+            f"{name}: needs [study] method and repetitions and [comparison] mu_s ({exc})"
+        ) from None
 
 
 def load_design(name_or_path: str) -> Design:
-    """The study's design: through the experiment package's study loader when there is one.
+    """The study's design, read by the experiment package's study loader.
 
-    Without it (or for a preset name) the built-in presets and a minimal TOML
-    reading (keys method, levels, repetitions, participants) stand in.
+    `stiction.experiment.study.load_study` checks a study file completely; when
+    it is not installed, the presets above and the few keys power needs stand in.
     """
     if importlib.util.find_spec("stiction.experiment.study") is not None:
         study_module: Any = importlib.import_module("stiction.experiment.study")
         loaded = study_module.load_study(name_or_path)
-        return _design_of(name_or_path, loaded)
+        return Design(
+            str(loaded.name),
+            str(loaded.method),
+            [float(v) for v in loaded.comparison_mu_s],
+            int(loaded.repetitions),
+        )
     if name_or_path in PRESETS:
-        return _from_mapping(name_or_path, PRESETS[name_or_path])
+        return _from_toml(name_or_path, PRESETS[name_or_path])
     path = Path(name_or_path)
     if not path.is_file():
         raise StictionError(
@@ -120,34 +123,7 @@ def load_design(name_or_path: str) -> Design:
         data = tomllib.loads(path.read_text())
     except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise StictionError(f"{path}: cannot read the study: {exc}") from None
-    return _from_mapping(path.stem, data)
-
-
-def _design_of(name: str, loaded: Any) -> Design:
-    """Adapt the study loader's object: attributes or keys named as in the presets."""
-
-    def get(key: str, default: Any = None) -> Any:
-        if isinstance(loaded, dict):
-            return loaded.get(key, default)
-        return getattr(loaded, key, default)
-
-    levels = get("levels") or get("comparison_mu_s")
-    if levels is None:
-        conditions = get("conditions") or []
-        levels = sorted({float(get_attr(c, "comparison_mu_s")) for c in conditions})
-    return _from_mapping(
-        str(get("name", name)),
-        {
-            "method": get("method", "2afc"),
-            "levels": levels,
-            "repetitions": get("repetitions", 10),
-            "participants": get("participants", 10),
-        },
-    )
-
-
-def get_attr(obj: Any, key: str) -> Any:
-    return obj[key] if isinstance(obj, dict) else getattr(obj, key)
+    return _from_toml(path.stem, data)
 
 
 def _analyze(args: argparse.Namespace) -> int:
@@ -190,11 +166,19 @@ def _power(args: argparse.Namespace) -> int:
     if args.jnd <= 0:
         raise StictionError("--jnd must be positive")
     observer = power.Observer(args.pse, args.jnd, args.guess, args.lapse)
-    people = args.participants or sorted({5, design.participants, 2 * design.participants})
+    people = args.participants or [5, PAPER_PARTICIPANTS, 2 * PAPER_PARTICIPANTS]
     reps = args.repetitions or sorted({5, design.repetitions, 2 * design.repetitions})
     table = power.design_table(
-        observer, design.levels, args.precision, people, reps, args.simulations, args.seed
+        observer,
+        design.levels,
+        args.precision,
+        people,
+        reps,
+        args.simulations,
+        args.seed,
+        args.pse_sd,
     )
+    best = power.cheapest(table)
     curves = (
         power.compare_methods(
             observer,
@@ -215,7 +199,9 @@ def _power(args: argparse.Namespace) -> int:
         "cover": power.COVER,
         "simulations": args.simulations,
         "seed": args.seed,
+        "pse_sd": args.pse_sd,
         "design": power.as_dict(table),
+        "cheapest": power.as_dict(best) if best else None,
         "compare": power.as_dict(curves),
         "quest_simulations": args.quest_simulations if args.compare else 0,
     }
@@ -234,6 +220,14 @@ def _power(args: argparse.Namespace) -> int:
             f"{row.participants:>12}{row.repetitions:>6}{row.trials_per_participant:>15}"
             f"{row.jnd_error95:>13.4f}  {'yes' if row.meets else 'no'}"
         )
+    if best:
+        print(
+            f"cheapest design meeting it: {best.participants} participants x "
+            f"{best.repetitions} repetitions ({best.participants * best.trials_per_participant}"
+            " trials in all)"
+        )
+    else:
+        print("no design tried meets it: try more participants or repetitions")
     if curves:
         print(
             f"\none participant, {args.quest_simulations} simulated runs per method: "
@@ -296,6 +290,12 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         type=positive_float,
         default=0.03,
         help="target: 95%% of estimates within +-this of the true JND (0.03)",
+    )
+    pw.add_argument(
+        "--pse-sd",
+        type=non_negative_float,
+        default=0.0,
+        help="spread (SD) of the participants' PSEs around --pse (0)",
     )
     pw.add_argument("--participants", type=_int_list, metavar="N,N,...", help="counts to try")
     pw.add_argument("--repetitions", type=_int_list, metavar="N,N,...", help="per level")
