@@ -65,6 +65,9 @@ def test_study2_recovers_stevens_law_and_finds_the_effect(results: list[dict[str
     st = r["stevens"]
     assert st["k"] == pytest.approx(1.12, abs=3 * st["k_se"] + 0.02)
     assert st["beta"] == pytest.approx(0.204, abs=3 * st["beta_se"] + 0.02)
+    assert st["k_ci"][0] < 1.12 < st["k_ci"][1]
+    assert st["beta_ci"][0] < 0.204 < st["beta_ci"][1]
+    assert st["bootstrap_failed"] == 0
     assert len(r["tukey"]) == 21 and len(r["shapiro"]) == 7
 
 

@@ -12,7 +12,8 @@
   standard error; Shapiro-Wilk per level, Mauchly's sphericity test and the
   one-way repeated-measures ANOVA with a Greenhouse-Geisser correction where
   sphericity is rejected (pingouin); Tukey HSD post-hoc comparisons; Stevens'
-  power function phi = k mu_s^beta by least squares on the level means.
+  power function phi = k mu_s^beta by least squares on the level means, with
+  bootstrap intervals from resampling participants.
 
 Every number in the dicts is a plain float/int/str so that `--json` prints
 them as they are and the report quotes them.
@@ -20,6 +21,7 @@ them as they are and the report quotes them.
 
 from __future__ import annotations
 
+import contextlib
 import math
 import warnings
 from collections.abc import Iterable
@@ -165,7 +167,31 @@ def _study1(
     return out
 
 
-def _study2(study: str, string: int, trials: list[Trial]) -> dict[str, Any]:
+def _stevens_bootstrap(
+    x: np.ndarray,
+    wide: np.ndarray,
+    start: tuple[float, float],
+    rng: np.random.Generator,
+    boots: int,
+) -> tuple[np.ndarray, np.ndarray]:
+    """k and beta refitted to the level means of participants resampled with replacement."""
+    from scipy.optimize import curve_fit
+
+    def power_law(x: np.ndarray, k: float, beta: float) -> np.ndarray:
+        return np.asarray(k * np.power(x, beta))
+
+    pick = rng.integers(0, wide.shape[0], size=(boots, wide.shape[0]))
+    ks, betas = np.full(boots, np.nan), np.full(boots, np.nan)
+    for i, rows in enumerate(pick):
+        # A resample that does not fit stays NaN and is left out of the percentiles.
+        with contextlib.suppress(RuntimeError, ValueError):
+            (ks[i], betas[i]), _ = curve_fit(power_law, x, wide[rows].mean(axis=0), p0=start)
+    return ks, betas
+
+
+def _study2(
+    study: str, string: int, trials: list[Trial], rng: np.random.Generator, boots: int
+) -> dict[str, Any]:
     import pandas as pd
     import pingouin as pg
     from scipy.optimize import curve_fit
@@ -232,6 +258,8 @@ def _study2(study: str, string: int, trials: list[Trial]) -> dict[str, Any]:
         raise AnalysisError(
             f"study {study!r}: Stevens' power function did not fit: {exc}"
         ) from None
+    wide = means.pivot(index="participant", columns="mu_s", values="ratio").to_numpy()
+    boot_k, boot_beta = _stevens_bootstrap(x, wide, (float(k), float(beta)), rng, boots)
     return {
         "study": study,
         "method": "ratio",
@@ -264,7 +292,15 @@ def _study2(study: str, string: int, trials: list[Trial]) -> dict[str, Any]:
             }
             for _, r in tukey.iterrows()
         ],
-        "stevens": {"k": float(k), "beta": float(beta), "k_se": k_se, "beta_se": beta_se},
+        "stevens": {
+            "k": float(k),
+            "beta": float(beta),
+            "k_se": k_se,
+            "beta_se": beta_se,
+            "k_ci": _ci(boot_k),
+            "beta_ci": _ci(boot_beta),
+            "bootstrap_failed": int(np.isnan(boot_k).sum()),
+        },
     }
 
 
@@ -283,7 +319,7 @@ def analyze_trials(
         if method == "2afc":
             results.append(_study1(study, string, rows, rng, bootstrap))
         else:
-            results.append(_study2(study, string, rows))
+            results.append(_study2(study, string, rows, rng, bootstrap))
     return results
 
 

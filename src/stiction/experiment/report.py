@@ -194,8 +194,12 @@ def _study2_text(r: dict[str, Any], figure: str) -> list[str]:
     out += [
         "",
         "Stevens' power function phi = k mu_s^beta, least squares on the level means "
-        f"(scipy.optimize.curve_fit): k = {_f(st['k'])} (SE {_f(st['k_se'], 2)}), "
-        f"beta = {_f(st['beta'])} (SE {_f(st['beta_se'], 2)}).",
+        f"(scipy.optimize.curve_fit): k = {_f(st['k'])} (SE {_f(st['k_se'], 2)}, "
+        f"95% interval {_ci(st['k_ci'])}), beta = {_f(st['beta'])} "
+        f"(SE {_f(st['beta_se'], 2)}, 95% interval {_ci(st['beta_ci'])}). The standard errors "
+        f"are the fit's (from the scatter of the {len(r['levels'])} means about the curve); "
+        "the intervals are "
+        "the percentile bootstrap over participants resampled with replacement, as for study 1.",
         "",
     ]
     return out
