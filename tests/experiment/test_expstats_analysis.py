@@ -42,7 +42,7 @@ def test_study1_intervals_hold_the_truth(results: list[dict[str, Any]], string: 
     assert r["jnd"] == pytest.approx(np.log(3) / r["a"])
     assert r["bootstrap"] == {
         "n": 300,
-        "resample": "participants",
+        "resample": "participants, then trials within each level",
         "failed": 0,
         "failed_guess_lapse": 0,
     }

@@ -7,13 +7,14 @@
   logistic fitted by maximum likelihood to the pooled answers and to each
   participant's, and a fit with free guess and lapse rates; PSE, JND, A, B
   with percentile-bootstrap 95% intervals (pooled: participants resampled
-  with replacement; one participant: trials resampled within each level).
+  with replacement, then their trials within each level; one participant:
+  trials resampled within each level).
 * ratio (study 2): the mean ratio per mu_s (participant means first) and its
   standard error; Shapiro-Wilk per level, Mauchly's sphericity test and the
   one-way repeated-measures ANOVA with a Greenhouse-Geisser correction where
   sphericity is rejected (pingouin); Tukey HSD post-hoc comparisons; Stevens'
   power function phi = k mu_s^beta by least squares on the level means, with
-  bootstrap intervals from resampling participants.
+  bootstrap intervals resampled in the same two stages.
 
 Every number in the dicts is a plain float/int/str so that `--json` prints
 them as they are and the report quotes them.
@@ -108,16 +109,21 @@ def _study1(
     pooled_k, pooled_n = k.sum(axis=0), n.sum(axis=0)
     paper, free = _fit_both(levels, pooled_k, pooled_n)
 
-    # Bootstrap of the pooled fit: resample participants (their between-person
-    # spread is part of the uncertainty); with one participant, resample trials.
-    if len(people) > 1:
-        pick = rng.integers(0, len(people), size=(boots, len(people)))
-        bk, bn = k[pick].sum(axis=1), n[pick].sum(axis=1)
-        resample = "participants"
-    else:
-        bn = np.broadcast_to(pooled_n, (boots, len(levels))).copy()
-        bk = rng.binomial(pooled_n.astype(int), pooled_k / pooled_n, size=(boots, len(levels)))
-        resample = "trials within each level"
+    # Bootstrap of the pooled fit, in two stages (Davison & Hinkley 1997,
+    # "Bootstrap Methods and their Application", section 3.8): resample
+    # participants with replacement, then each drawn participant's trials within
+    # each level. Participants alone would give 10 distinct resamples for 3
+    # people, and intervals far too narrow; both stages err on the wide side.
+    pick = rng.integers(0, len(people), size=(boots, len(people)))
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(n > 0, k / np.where(n > 0, n, 1.0), 0.0)
+    bn = n[pick].sum(axis=1)
+    bk = rng.binomial(n[pick].astype(int), rate[pick]).sum(axis=1).astype(float)
+    resample = (
+        "participants, then trials within each level"
+        if len(people) > 1
+        else "trials within each level"
+    )
     # A resample may miss a level entirely (n = 0): it then adds nothing to the likelihood.
     ba, bb, bok = ps.fit_fixed(levels, bk, bn)
     ga, gb, gg, gl, gok = ps.fit_guess_lapse_many(levels, bk, bn)
@@ -169,23 +175,35 @@ def _study1(
 
 def _stevens_bootstrap(
     x: np.ndarray,
-    wide: np.ndarray,
+    trials: np.ndarray,
     start: tuple[float, float],
     rng: np.random.Generator,
     boots: int,
 ) -> tuple[np.ndarray, np.ndarray]:
-    """k and beta refitted to the level means of participants resampled with replacement."""
+    """k and beta refitted to resampled level means.
+
+    `trials[i][j]` holds participant i's ratios at level j. Two stages, as for
+    study 1: participants with replacement, then each one's trials per level.
+    """
     from scipy.optimize import curve_fit
 
     def power_law(x: np.ndarray, k: float, beta: float) -> np.ndarray:
         return np.asarray(k * np.power(x, beta))
 
-    pick = rng.integers(0, wide.shape[0], size=(boots, wide.shape[0]))
+    people, levels = trials.shape
+    cell_means = np.empty((boots, people, levels))
+    for i in range(people):
+        for j in range(levels):
+            values = np.asarray(trials[i, j], dtype=float)
+            draw = rng.integers(0, len(values), size=(boots, len(values)))
+            cell_means[:, i, j] = values[draw].mean(axis=1)
+    pick = rng.integers(0, people, size=(boots, people))
+    level_means = np.take_along_axis(cell_means, pick[:, :, None], axis=1).mean(axis=1)
     ks, betas = np.full(boots, np.nan), np.full(boots, np.nan)
-    for i, rows in enumerate(pick):
+    for b in range(boots):
         # A resample that does not fit stays NaN and is left out of the percentiles.
         with contextlib.suppress(RuntimeError, ValueError):
-            (ks[i], betas[i]), _ = curve_fit(power_law, x, wide[rows].mean(axis=0), p0=start)
+            (ks[b], betas[b]), _ = curve_fit(power_law, x, level_means[b], p0=start)
     return ks, betas
 
 
@@ -258,8 +276,10 @@ def _study2(
         raise AnalysisError(
             f"study {study!r}: Stevens' power function did not fit: {exc}"
         ) from None
-    wide = means.pivot(index="participant", columns="mu_s", values="ratio").to_numpy()
-    boot_k, boot_beta = _stevens_bootstrap(x, wide, (float(k), float(beta)), rng, boots)
+    cells = np.empty((len(people), len(levels)), dtype=object)
+    for (who, level), group in frame.groupby(["participant", "mu_s"])["ratio"]:
+        cells[people.index(who), levels.index(level)] = group.to_numpy()
+    boot_k, boot_beta = _stevens_bootstrap(x, cells, (float(k), float(beta)), rng, boots)
     return {
         "study": study,
         "method": "ratio",

@@ -199,7 +199,7 @@ def _study2_text(r: dict[str, Any], figure: str) -> list[str]:
         f"(SE {_f(st['beta_se'], 2)}, 95% interval {_ci(st['beta_ci'])}). The standard errors "
         f"are the fit's (from the scatter of the {len(r['levels'])} means about the curve); "
         "the intervals are "
-        "the percentile bootstrap over participants resampled with replacement, as for study 1.",
+        "the percentile bootstrap over participants and their trials, as for study 1.",
         "",
     ]
     return out
