@@ -120,17 +120,24 @@ def cheapest(rows: list[DesignRow]) -> DesignRow | None:
     return min(meeting, key=lambda r: (r.participants * r.trials_per_participant, r.participants))
 
 
-def _quest(levels: np.ndarray, observer: Observer) -> Any:
+def param_grid(levels: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """QUEST+'s grid of the normal model's mean and sd over a stimulus range."""
+    span = float(levels.max() - levels.min())
+    step = float(np.diff(np.unique(levels)).min()) if len(np.unique(levels)) > 1 else span / 10
+    means = np.linspace(levels.min() - 0.2 * span, levels.max(), 25)
+    sds = np.geomspace(step / 4, span, 20)  # a quarter of the finest spacing to the range
+    return means, sds
+
+
+def _quest(levels: np.ndarray, observer: Observer, grid_of: np.ndarray) -> Any:
     import questplus
 
-    span = float(levels.max() - levels.min())
-    step = float(np.diff(levels).min()) if len(levels) > 1 else span / 10
+    means, sds = param_grid(grid_of)
     return questplus.QuestPlus(
         stim_domain={"intensity": levels},
         param_domain={
-            "mean": np.linspace(levels.min() - 0.2 * span, levels.max(), 25),
-            # sd from a quarter of the finest spacing to the whole range
-            "sd": np.geomspace(step / 4, span, 20),
+            "mean": means,
+            "sd": sds,
             "lower_asymptote": [observer.guess],
             "lapse_rate": [observer.lapse],
         },
@@ -142,11 +149,40 @@ def _quest(levels: np.ndarray, observer: Observer) -> Any:
     )
 
 
+def bayes_jnd(
+    x: np.ndarray, k: np.ndarray, n: np.ndarray, observer: Observer, grid_of: np.ndarray
+) -> np.ndarray:
+    """QUEST+'s estimate from counts, for many data sets at once: JND = 0.6745 E[sd].
+
+    The posterior over the same (mean, sd) grid, model and uniform prior as
+    `_quest`, from `k` "comparison" answers of `n` at the levels `x` (rows:
+    data sets). Order does not matter to a posterior, so constant stimuli can
+    be scored with exactly the estimator QUEST+ uses and the comparison is
+    about where the trials go, not how they are analysed (a test checks this
+    against questplus itself).
+    """
+    from scipy.special import ndtr
+
+    means, sds = param_grid(grid_of)
+    scale = 1 - observer.guess - observer.lapse
+    z = (x[None, None, :] - means[:, None, None]) / sds[None, :, None]
+    p = np.clip(observer.guess + scale * ndtr(z), 1e-12, 1 - 1e-12)  # mean x sd x level
+    ks = np.atleast_2d(k)
+    ns = np.broadcast_to(np.atleast_2d(n), ks.shape)
+    loglik = np.einsum("il,msl->ims", ks, np.log(p)) + np.einsum(
+        "il,msl->ims", ns - ks, np.log1p(-p)
+    )
+    loglik -= loglik.max(axis=(1, 2), keepdims=True)
+    post = np.exp(loglik)
+    post /= post.sum(axis=(1, 2), keepdims=True)
+    return np.asarray(Z75 * np.einsum("ims,s->i", post, sds))
+
+
 def quest_run(
     observer: Observer, levels: np.ndarray, checkpoints: list[int], rng: np.random.Generator
 ) -> list[float]:
     """One QUEST+ run: the JND estimate after each checkpoint's number of trials."""
-    q = _quest(levels, observer)
+    q = _quest(levels, observer, levels)
     out = []
     last = max(checkpoints)
     marks = set(checkpoints)
@@ -189,24 +225,46 @@ def compare_methods(
     simulations: int,
     seed: int,
     quest_levels: int = 26,
+    mcs_simulations: int | None = None,
 ) -> list[MethodCurve]:
     """Constant stimuli vs QUEST+ for one observer: JND error against trials spent.
 
-    Constant stimuli runs whole repetitions of `levels`; QUEST+ chooses each
-    stimulus from `quest_levels` evenly spaced values over the same range.
+    Constant stimuli runs whole repetitions of `levels` and is scored twice:
+    with the paper's analysis (the ML logistic fit) and with QUEST+'s own
+    Bayesian estimate. QUEST+ chooses each stimulus from `quest_levels` evenly
+    spaced values over the same range. Constant stimuli is cheap to simulate
+    and gets `mcs_simulations` runs (default: as many as QUEST+).
     """
     rng = np.random.default_rng(seed)
     x = np.array(levels, dtype=float)
+    grid = np.round(np.linspace(x.min(), x.max(), quest_levels), 6)
+    mcs_runs = mcs_simulations or simulations
     reps = list(range(1, max(1, max_trials // len(x)) + 1))
     mcs_trials = [r * len(x) for r in reps]
-    mcs_err = [constant_stimuli_error(observer, x, 1, r, simulations, rng) for r in reps]
-    grid = np.round(np.linspace(x.min(), x.max(), quest_levels), 6)
+    ml_err, bayes_err = [], []
+    for r in reps:
+        k = rng.binomial(r, observer.p(x), size=(mcs_runs, len(x))).astype(float)
+        n = np.full(len(x), float(r))
+        a_hat, _, ok = ps.fit_fixed(x, k, n, observer.guess, observer.lapse)
+        ml_err.append(
+            _error_quantile(np.where(ok, ps.LN3 / np.where(ok, a_hat, 1.0), np.nan), observer.jnd)
+        )
+        bayes_err.append(_error_quantile(bayes_jnd(x, k, n, observer, grid), observer.jnd))
     checkpoints = sorted({t for t in mcs_trials if t <= max_trials} | {max_trials})
     runs = np.array([quest_run(observer, grid, checkpoints, rng) for _ in range(simulations)])
     q_err = [_error_quantile(runs[:, i], observer.jnd) for i in range(len(checkpoints))]
     return [
         MethodCurve(
-            "constant stimuli", mcs_trials, mcs_err, _needed(mcs_trials, mcs_err, precision)
+            "constant stimuli, ML fit",
+            mcs_trials,
+            ml_err,
+            _needed(mcs_trials, ml_err, precision),
+        ),
+        MethodCurve(
+            "constant stimuli, Bayes",
+            mcs_trials,
+            bayes_err,
+            _needed(mcs_trials, bayes_err, precision),
         ),
         MethodCurve("QUEST+", checkpoints, q_err, _needed(checkpoints, q_err, precision)),
     ]

@@ -179,7 +179,7 @@ def _power(args: argparse.Namespace) -> int:
         args.pse_sd,
     )
     best = power.cheapest(table)
-    curves = (
+    curves = (  # QUEST+ costs tens of ms a trial; constant stimuli is vectorised
         power.compare_methods(
             observer,
             design.levels,
@@ -187,6 +187,7 @@ def _power(args: argparse.Namespace) -> int:
             args.max_trials,
             args.quest_simulations,
             args.seed,
+            mcs_simulations=args.simulations,
         )
         if args.compare
         else []
@@ -230,24 +231,22 @@ def _power(args: argparse.Namespace) -> int:
         print("no design tried meets it: try more participants or repetitions")
     if curves:
         print(
-            f"\none participant, {args.quest_simulations} simulated runs per method: "
-            "JND error95 by trials"
+            f"\none participant; JND error95 by trials; QUEST+ {args.quest_simulations} "
+            f"simulated runs, constant stimuli {args.simulations}"
         )
+        print(f"{'trials':>7}" + "".join(f"{c.method:>26}" for c in curves))
+        errors = [dict(zip(c.trials, c.jnd_error95, strict=True)) for c in curves]
+        for t in sorted({t for c in curves for t in c.trials}):
+            cells = [f"{e[t]:>26.3f}" if t in e else f"{'':>26}" for e in errors]
+            print(f"{t:>7}" + "".join(cells))
+        print(f"trials needed for +-{args.precision} (from then on, every count meets it):")
         for c in curves:
-            errs = " ".join(f"{t}:{e:.3f}" for t, e in zip(c.trials, c.jnd_error95, strict=True))
-            print(f"{c.method:<17} {errs}")
-        needed = {c.method: c.trials_needed for c in curves}
-        print(
-            "trials needed for +-"
-            + str(args.precision)
-            + ": "
-            + ", ".join(
-                f"{m} {n if n is not None else f'> {args.max_trials}'}" for m, n in needed.items()
-            )
-        )
-        mcs, qp = needed.get("constant stimuli"), needed.get("QUEST+")
-        if mcs and qp:
-            print(f"constant stimuli / QUEST+: {mcs / qp:.2f}x")
+            n = c.trials_needed
+            print(f"  {c.method:<26}{n if n is not None else f'more than {args.max_trials}'}")
+        by = {c.method: c.trials_needed for c in curves}
+        same, qp = by.get("constant stimuli, Bayes"), by.get("QUEST+")
+        if same and qp:
+            print(f"constant stimuli / QUEST+, same estimator: {same / qp:.2f}x the trials")
     return 0
 
 
