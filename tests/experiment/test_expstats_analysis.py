@@ -71,6 +71,23 @@ def test_study2_recovers_stevens_law_and_finds_the_effect(results: list[dict[str
     assert len(r["tukey"]) == 21 and len(r["shapiro"]) == 7
 
 
+def test_jnd_interval_follows_the_slope_interval() -> None:
+    # ln(3)/A is decreasing for A > 0 and unbounded where A's interval reaches 0.
+    assert analysis._jnd_ci([2.0, 4.0]) == pytest.approx([np.log(3) / 4, np.log(3) / 2])
+    assert analysis._jnd_ci([-1.0, 4.0]) == [pytest.approx(np.log(3) / 4), np.inf]
+    assert analysis._jnd_ci([2.0, np.inf]) == [0.0, pytest.approx(np.log(3) / 2)]
+    assert all(np.isnan(analysis._jnd_ci([-3.0, -1.0])))
+
+
+def test_separated_resamples_count_as_infinitely_steep(tmp_path: Path) -> None:
+    # One participant with few trials: some resamples are a step between two
+    # levels; they widen the slope interval to infinity instead of vanishing.
+    study1(tmp_path, pse=0.3, jnd=0.03, participants=1, reps=3, strings=(1,), seed=5)
+    (r,) = analysis.analyze([tmp_path], seed=1, bootstrap=200)
+    assert r["bootstrap"]["failed"] > 0
+    assert r["a_ci"][1] == np.inf and r["jnd_ci"][0] == 0.0
+
+
 def test_seed_makes_the_bootstrap_repeatable(tmp_path: Path) -> None:
     study1(tmp_path, pse=0.3, jnd=0.1, participants=3, reps=4, strings=(1,))
     one = analysis.analyze([tmp_path], seed=9, bootstrap=50)

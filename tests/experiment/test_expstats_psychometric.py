@@ -46,7 +46,9 @@ def test_vectorised_fit_matches_one_at_a_time() -> None:
 def test_separated_answers_have_no_finite_fit() -> None:
     k = np.array([0.0, 0.0, 0.0, 10.0, 10.0, 10.0])
     a, b, ok = ps.fit_fixed(LEVELS, k, np.full(6, 10.0))
-    assert not ok[0] and math.isnan(a[0]) and math.isnan(b[0])
+    assert not ok[0] and a[0] == math.inf and math.isnan(b[0])
+    a, b, ok = ps.fit_fixed(LEVELS, k[::-1], np.full(6, 10.0))  # falling: -inf
+    assert not ok[0] and a[0] == -math.inf and math.isnan(b[0])
 
 
 @pytest.mark.parametrize(("guess", "lapse"), [(0.0, 0.0), (0.0, 0.05), (0.5, 0.03)])

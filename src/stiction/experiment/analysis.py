@@ -39,29 +39,50 @@ ALPHA = 0.05
 
 
 def _ci(values: np.ndarray) -> list[float]:
-    finite = values[np.isfinite(values)]
-    if finite.size == 0:
+    """Percentile interval of the non-NaN values; infinities stay (no interpolation)."""
+    kept = values[~np.isnan(values)]
+    if kept.size == 0:
         return [math.nan, math.nan]
-    lo, hi = np.percentile(finite, [100 * ALPHA / 2, 100 * (1 - ALPHA / 2)])
+    lo, hi = np.percentile(kept, [100 * ALPHA / 2, 100 * (1 - ALPHA / 2)], method="inverted_cdf")
     return [float(lo), float(hi)]
+
+
+def _jnd_ci(a_ci: list[float]) -> list[float]:
+    """The JND interval from A's: JND = ln(3)/A falls as A rises, for A > 0.
+
+    A percentile interval carries over through a monotone map, but ln(3)/A is
+    not monotone across A = 0: where A's interval reaches 0 or below (a flat
+    or falling curve is plausible) the JND has no upper bound (inf, null in
+    JSON), and a resample that was perfectly separated (A = inf) puts the
+    lower bound at 0.
+    """
+    lo, hi = a_ci
+    if math.isnan(lo) or math.isnan(hi) or hi <= 0:
+        return [math.nan, math.nan]
+    return [ps.LN3 / hi if hi < math.inf else 0.0, ps.LN3 / lo if lo > 0 else math.inf]
 
 
 def _params(
     a: np.ndarray, b: np.ndarray, point: tuple[float, float], ok: np.ndarray
 ) -> dict[str, Any]:
-    """Point estimates and percentile intervals of A, B, PSE and JND."""
-    a_ok, b_ok = np.where(ok, a, np.nan), np.where(ok, b, np.nan)
-    jnd = np.where(ok & (a_ok != 0), ps.LN3 / np.where(a_ok != 0, a_ok, 1.0), np.nan)
+    """Point estimates and percentile intervals of A, B, PSE and JND.
+
+    Resamples with separated answers count as infinitely steep in A's and the
+    JND's intervals and are left out of the PSE's (their PSE is unknown).
+    """
+    a_kept = np.where(ok | np.isinf(a), a, np.nan)
+    b_ok = np.where(ok, b, np.nan)
     pa, pb = point
+    a_ci = _ci(a_kept)
     return {
         "a": pa,
         "b": pb,
         "pse": pb,
         "jnd": ps.LN3 / pa if pa and math.isfinite(pa) else math.nan,
-        "a_ci": _ci(a_ok),
+        "a_ci": a_ci,
         "b_ci": _ci(b_ok),
         "pse_ci": _ci(b_ok),
-        "jnd_ci": _ci(jnd),
+        "jnd_ci": _jnd_ci(a_ci),
     }
 
 

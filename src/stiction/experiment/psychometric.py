@@ -107,7 +107,8 @@ def fit_fixed(
     result is then arrays of R values of A and B and a flag per data set that
     says the fit converged. A data set whose answers are perfectly separated
     along x has no finite maximum; its slope grows past every bound and it
-    is reported as not converged (A and B then are NaN).
+    is reported as not converged with A = +-inf and B = NaN (any other
+    failure to converge: both NaN).
     """
     xs = np.asarray(x, dtype=float)
     ks = np.atleast_2d(np.asarray(k, dtype=float))
@@ -152,7 +153,9 @@ def fit_fixed(
         # so a slope past the limit ends the iteration as not converged.
         done[act] = ((np.abs(d1) * span < 1e-7) & (np.abs(d0) < 1e-7)) | (np.abs(c1) > limit)
     converged = done & (np.abs(b1) <= limit) & (b1 != 0)
-    a = np.where(converged, b1, np.nan)
+    # Separated answers: the slope is infinite (its sign kept), the PSE unknown.
+    steep = np.abs(b1) > limit
+    a = np.where(converged, b1, np.where(steep, np.sign(b1) * np.inf, np.nan))
     b = np.where(converged, -b0 / np.where(b1 != 0, b1, 1.0), np.nan)
     return a, b, converged
 

@@ -19,7 +19,9 @@ from stiction.experiment.trials import AnalysisError
 
 
 def _f(v: float, digits: int = 3) -> str:
-    return "n/a" if v is None or not math.isfinite(v) else f"{v:.{digits}g}"
+    if v is None or math.isnan(v):
+        return "n/a"
+    return f"{v:.{digits}g}"  # inf for an unbounded interval end
 
 
 def _ci(pair: list[float]) -> str:
