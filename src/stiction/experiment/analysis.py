@@ -78,7 +78,8 @@ def _params(
         "a": pa,
         "b": pb,
         "pse": pb,
-        "jnd": ps.LN3 / pa if pa and math.isfinite(pa) else math.nan,
+        # No JND for a curve that does not rise (A <= 0) or has no finite fit.
+        "jnd": ps.LN3 / pa if math.isfinite(pa) and pa > 0 else math.nan,
         "a_ci": a_ci,
         "b_ci": _ci(b_ok),
         "pse_ci": _ci(b_ok),

@@ -105,7 +105,7 @@ def _study1_text(study: str, results: list[dict[str, Any]], figure: str) -> list
         "(logistic regression of the answers on mu_s). PSE = B; JND = the 75% point minus "
         "the PSE = ln(3)/A; all on the mu_s axis.",
         "",
-        "| condition | trials | A (1/mu_s) | B = PSE (mu_s) | JND (mu_s) | fit failed in |",
+        "| condition | trials | A (1/mu_s) | B = PSE (mu_s) | JND (mu_s) | no finite fit in |",
         "|---|---|---|---|---|---|",
     ]
     for r in results:
@@ -135,7 +135,7 @@ def _study1_text(study: str, results: list[dict[str, Any]], figure: str) -> list
         "",
         "Per participant (the paper's logistic; intervals from resampling that participant's "
         "trials within each level; a fit of perfectly separated answers has no finite slope "
-        "and is reported as n/a):",
+        "and is reported as n/a, as is the JND of a curve that does not rise):",
         "",
         "| condition | participant | PSE | JND | A |",
         "|---|---|---|---|---|",
