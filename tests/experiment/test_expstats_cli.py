@@ -241,3 +241,12 @@ def test_power_reads_a_study_toml(tmp_path: Path, capsys: pytest.CaptureFixture[
     res = json.loads(out)
     assert res["study"] == "mine" and res["levels"] == [0.0, 0.1, 0.2, 0.3]
     assert sorted({r["repetitions"] for r in res["design"]}) == [5, 8, 16]
+
+
+def test_missing_extra_says_what_to_install(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(stats_cli, "EXTRA_MODULES", ("numpy", "no_such_module_for_expstats"))
+    code, _, err = run(["analyze", str(tmp_path), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2
+    assert "no_such_module_for_expstats" in err and "stiction[experiment]" in err

@@ -44,15 +44,6 @@ def _need_extra() -> None:
         raise StictionError(f"this command needs {', '.join(missing)}: {EXTRA_HINT}")
 
 
-def _float_list(text: str) -> list[float]:
-    try:
-        return [float(v) for v in text.split(",") if v.strip()]
-    except ValueError:
-        raise argparse.ArgumentTypeError(
-            f"expected numbers separated by commas, got {text!r}"
-        ) from None
-
-
 def _int_list(text: str) -> list[int]:
     try:
         values = [int(v) for v in text.split(",") if v.strip()]
@@ -66,7 +57,8 @@ def _int_list(text: str) -> list[int]:
 
 
 def _unit(text: str) -> float:
-    value = positive_float(text) if text.strip() not in ("0", "0.0") else 0.0
+    """A guess or lapse rate: 0 <= rate < 0.5 (at 0.5 and above the curve cannot rise)."""
+    value = non_negative_float(text)
     if value >= 0.5:
         raise argparse.ArgumentTypeError(f"must be in [0, 0.5), got {text}")
     return value
