@@ -47,6 +47,9 @@ def test_study1_intervals_hold_the_truth(results: list[dict[str, Any]], string: 
         "failed_guess_lapse": 0,
     }
     assert len(r["per_participant"]) == 10
+    for p in r["per_participant"]:
+        assert {"pse", "jnd", "pse_ci", "jnd_ci", "guess_lapse"} <= set(p)
+        assert 0 <= p["guess_lapse"]["guess"] <= 0.5 and 0 <= p["guess_lapse"]["lapse"] <= 0.1
     # The pooled proportion and the mean of participants' proportions agree when
     # everyone has the same number of trials per level.
     assert r["proportion"] == pytest.approx(r["proportion_mean"])

@@ -87,6 +87,21 @@ def _params(
     }
 
 
+def _guess_lapse_params(
+    fit: ps.Fit, boot: tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]
+) -> dict[str, Any]:
+    """The guess/lapse fit's estimates and the intervals of its (grid) bootstrap."""
+    a, b, g, lam, ok = boot
+    out = _params(a, b, (fit.a, fit.b), ok)
+    out.update(
+        guess=fit.guess,
+        lapse=fit.lapse,
+        guess_ci=_ci(np.where(ok, g, np.nan)),
+        lapse_ci=_ci(np.where(ok, lam, np.nan)),
+    )
+    return out
+
+
 def _matrix(trials: list[Trial]) -> tuple[list[str], np.ndarray, np.ndarray, np.ndarray]:
     """Participants, levels, and per participant x level counts of "comparison" and trials."""
     people = sorted({t.participant for t in trials})
@@ -151,13 +166,7 @@ def _study1(
     ga, gb, gg, gl, gok = ps.fit_guess_lapse_many(levels, bk, bn)
 
     pooled = _params(ba, bb, (paper.a, paper.b), bok)
-    guess_lapse = _params(ga, gb, (free.a, free.b), gok)
-    guess_lapse.update(
-        guess=free.guess,
-        lapse=free.lapse,
-        guess_ci=_ci(np.where(gok, gg, np.nan)),
-        lapse_ci=_ci(np.where(gok, gl, np.nan)),
-    )
+    guess_lapse = _guess_lapse_params(free, (ga, gb, gg, gl, gok))
 
     per_participant = []
     for i, who in enumerate(people):
@@ -169,6 +178,8 @@ def _study1(
         entry = {"participant": who, "trials": int(ni.sum()), "converged": fit.converged}
         entry.update(_params(pa, pb, (fit.a, fit.b), pok))
         entry["bootstrap_failed"] = int((~pok).sum())
+        own = ps.fit_guess_lapse(x, ki, ni)
+        entry["guess_lapse"] = _guess_lapse_params(own, ps.fit_guess_lapse_many(x, pbk, ni))
         per_participant.append(entry)
 
     out: dict[str, Any] = {

@@ -137,14 +137,17 @@ def _study1_text(study: str, results: list[dict[str, Any]], figure: str) -> list
         "trials within each level; a fit of perfectly separated answers has no finite slope "
         "and is reported as n/a, as is the JND of a curve that does not rise):",
         "",
-        "| condition | participant | PSE | JND | A |",
-        "|---|---|---|---|---|",
+        "| condition | participant | PSE | JND | A | guess/lapse fit: PSE | JND | gamma | lambda |",
+        "|---|---|---|---|---|---|---|---|---|",
     ]
     for r in results:
         for p in r["per_participant"]:
+            g = p["guess_lapse"]
             out.append(
                 f"| {_label(r)} | {p['participant']} | {_f(p['pse'])} {_ci(p['pse_ci'])} | "
-                f"{_f(p['jnd'])} {_ci(p['jnd_ci'])} | {_f(p['a'])} |"
+                f"{_f(p['jnd'])} {_ci(p['jnd_ci'])} | {_f(p['a'])} | {_f(g['pse'])} "
+                f"{_ci(g['pse_ci'])} | {_f(g['jnd'])} {_ci(g['jnd_ci'])} | {_f(g['guess'])} "
+                f"| {_f(g['lapse'])} |"
             )
     return [*out, ""]
 
