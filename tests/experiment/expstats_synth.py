@@ -102,17 +102,23 @@ def study2(
     seed: int = 2,
     person_sd: float = 0.05,
     trial_sd: float = 0.05,
+    slope_sd: float = 0.0,
 ) -> list[Path]:
+    """`slope_sd` gives each participant their own linear trend in mu_s, which
+    makes the variance of the differences between levels grow with their
+    distance: a violation of sphericity."""
     rng = np.random.default_rng(seed)
     paths = []
     for i in range(participants):
         offset = rng.normal(0, person_sd)
+        slope = rng.normal(0, slope_sd)
         rows = []
         trial = 0
         for mu in STUDY2_LEVELS:
             for _ in range(reps):
                 trial += 1
-                ratio = max(0.05, k * mu**beta + offset + rng.normal(0, trial_sd))
+                noise = offset + slope * (mu - 0.7) + rng.normal(0, trial_sd)
+                ratio = max(0.05, k * mu**beta + noise)
                 rows.append(
                     _row(
                         participant=f"q{i:02d}",

@@ -101,6 +101,16 @@ def test_seed_makes_the_bootstrap_repeatable(tmp_path: Path) -> None:
     assert one[0]["jnd_ci"] != other[0]["jnd_ci"]
 
 
+def test_greenhouse_geisser_applies_where_sphericity_fails(tmp_path: Path) -> None:
+    study2(tmp_path, k=1.1, beta=0.2, participants=12, reps=3, slope_sd=0.6, seed=4)
+    (r,) = analysis.analyze([tmp_path], bootstrap=20)
+    a = r["anova"]
+    assert not r["mauchly"]["spherical"] and r["mauchly"]["p"] < 0.05
+    assert a["correction"] == "greenhouse-geisser"
+    assert a["p"] == a["p_gg"] and a["p"] > a["p_uncorrected"]
+    assert (a["df1"], a["df2"]) == pytest.approx((6 * a["eps_gg"], 66 * a["eps_gg"]))
+
+
 def _known_rm_data(seed: int = 6) -> Any:
     import pandas as pd
 
