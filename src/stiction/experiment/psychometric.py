@@ -19,7 +19,9 @@ Two models:
 many data sets at once by Fisher scoring: a bootstrap of 1,000 resamples is
 one call instead of 1,000 optimiser runs. With gamma = lambda = 0 it is
 ordinary logistic regression (the tests check it against statsmodels' GLM).
-`fit_guess_lapse` frees gamma and lambda within bounds with scipy's L-BFGS-B.
+`fit_guess_lapse_many` frees gamma and lambda on a grid (running `fit_fixed`
+for every grid point and data set in one batch); `fit_guess_lapse` refines
+one data set's grid optimum continuously with scipy's L-BFGS-B.
 """
 
 from __future__ import annotations
