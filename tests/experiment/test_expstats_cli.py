@@ -134,6 +134,16 @@ def test_malformed_csv_is_one_clear_error(
     assert "Traceback" not in err and err.count("\n") == 1
 
 
+def test_a_spreadsheet_saved_csv_is_read(data: Path, tmp_path: Path) -> None:
+    # Byte-order mark and CRLF line ends, as spreadsheet programs save CSV.
+    from stiction.experiment.trials import read_file
+
+    src = sorted(data.glob("p*.csv"))[0]
+    saved = tmp_path / "saved.csv"
+    saved.write_bytes(b"\xef\xbb\xbf" + src.read_bytes().replace(b"\n", b"\r\n"))
+    assert read_file(saved) == read_file(src)
+
+
 def test_missing_paths_and_empty_directories_are_clear_errors(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

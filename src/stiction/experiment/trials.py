@@ -111,7 +111,8 @@ def _row(row: dict[str, str], where: str) -> Trial:
 
 def read_file(path: Path) -> list[Trial]:
     """The trials of one CSV file, checked row by row."""
-    text = read_regular_text(path, MAX_BYTES, AnalysisError, "trial CSV")
+    # A spreadsheet that saved the file may have put a byte-order mark first.
+    text = read_regular_text(path, MAX_BYTES, AnalysisError, "trial CSV").removeprefix("\ufeff")
     reader = csv.DictReader(io.StringIO(text))
     header = reader.fieldnames or []
     missing = [c for c in REQUIRED if c not in header]
