@@ -149,6 +149,9 @@ def test_missing_paths_and_empty_directories_are_clear_errors(
 ) -> None:
     code, _, err = run(["analyze", str(tmp_path / "nope"), "--out", str(tmp_path)], capsys)
     assert code == 2 and "no such file or directory" in err
+    (tmp_path / "p01.json").write_text("{}")
+    code, _, err = run(["analyze", str(tmp_path / "p01.json"), "--out", str(tmp_path)], capsys)
+    assert code == 2 and "a session sidecar, not trial data" in err
     (tmp_path / "empty").mkdir()
     code, _, err = run(["analyze", str(tmp_path / "empty"), "--out", str(tmp_path)], capsys)
     assert code == 2 and "no .csv trial files" in err

@@ -51,6 +51,10 @@ def csv_paths(args: Iterable[str | Path]) -> list[Path]:
             if not found:
                 raise AnalysisError(f"{p}: no .csv trial files in this directory")
             out.extend(found)
+        elif p.suffix == ".json" and p.exists():
+            raise AnalysisError(
+                f"{p}: a session sidecar, not trial data; name the .csv files or their directory"
+            )
         elif p.exists():
             out.append(p)
         else:
