@@ -155,8 +155,6 @@ def _power(args: argparse.Namespace) -> int:
         raise StictionError(
             f"{design.name}: power estimates the JND of a 2afc study; this one is {design.method}"
         )
-    if args.jnd <= 0:
-        raise StictionError("--jnd must be positive")
     observer = power.Observer(args.pse, args.jnd, args.guess, args.lapse)
     people = args.participants or [5, PAPER_PARTICIPANTS, 2 * PAPER_PARTICIPANTS]
     reps = args.repetitions or sorted({5, design.repetitions, 2 * design.repetitions})
