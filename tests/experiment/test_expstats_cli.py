@@ -226,7 +226,7 @@ def test_power_compare_reports_every_method(capsys: pytest.CaptureFixture[str]) 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["power", "no-such-study"], "neither a study file nor a preset"),
+        (["power", "no-such-study"], "no such study file (or preset; presets: paper-study1"),
         (["power", "paper-study2"], "this one is ratio"),
         (["power", "paper-study1", "--jnd", "0"], "must be a positive number"),
         (["power", "paper-study1", "--lapse", "0.7"], "must be in [0, 0.5)"),

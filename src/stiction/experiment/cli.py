@@ -178,10 +178,6 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     s.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     s.set_defaults(func=_simulate)
 
-    import importlib.util
+    from stiction.experiment import stats_cli  # analyze and power: the statistics half
 
-    # The analysis half (analyze, power) lives in stats_cli; register it when present.
-    if importlib.util.find_spec("stiction.experiment.stats_cli") is not None:
-        from stiction.experiment import stats_cli  # type: ignore[attr-defined,unused-ignore]
-
-        stats_cli.register(esub)
+    stats_cli.register(esub)

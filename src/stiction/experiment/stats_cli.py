@@ -12,7 +12,6 @@ import argparse
 import importlib.util
 import json
 import sys
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -23,18 +22,6 @@ from stiction.errors import StictionError
 EXTRA_MODULES = ("numpy", "scipy", "pandas", "pingouin", "matplotlib", "questplus")
 EXTRA_HINT = "pip install 'stiction[experiment]'"
 
-# The paper's two designs (User study 1 and 2) in the study-file schema of
-# docs/experiments.md ("Protocols"), for when the study loader is not installed.
-PRESETS: dict[str, dict[str, Any]] = {
-    "paper-study1": {
-        "study": {"name": "paper-study1", "method": "2afc", "repetitions": 10},
-        "comparison": {"mu_s": [0.0, 0.2, 0.4, 0.6, 0.8, 1.0]},
-    },
-    "paper-study2": {
-        "study": {"name": "paper-study2", "method": "ratio", "repetitions": 5},
-        "comparison": {"mu_s": [0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0]},
-    },
-}
 PAPER_PARTICIPANTS = 10  # both user studies had 10 participants
 
 
@@ -74,48 +61,17 @@ class Design:
     repetitions: int
 
 
-def _from_toml(name: str, data: dict[str, Any]) -> Design:
-    try:
-        study = data["study"]
-        return Design(
-            str(study.get("name", name)),
-            str(study["method"]),
-            [float(v) for v in data["comparison"]["mu_s"]],
-            int(study["repetitions"]),
-        )
-    except (KeyError, TypeError, ValueError, AttributeError) as exc:
-        raise StictionError(
-            f"{name}: needs [study] method and repetitions and [comparison] mu_s ({exc})"
-        ) from None
-
-
 def load_design(name_or_path: str) -> Design:
-    """The study's design, read by the experiment package's study loader.
+    """The study's design, read (and checked completely) by the study loader."""
+    from stiction.experiment.study import load_study
 
-    `stiction.experiment.study.load_study` checks a study file completely; when
-    it is not installed, the presets above and the few keys power needs stand in.
-    """
-    if importlib.util.find_spec("stiction.experiment.study") is not None:
-        study_module: Any = importlib.import_module("stiction.experiment.study")
-        loaded = study_module.load_study(name_or_path)
-        return Design(
-            str(loaded.name),
-            str(loaded.method),
-            [float(v) for v in loaded.comparison_mu_s],
-            int(loaded.repetitions),
-        )
-    if name_or_path in PRESETS:
-        return _from_toml(name_or_path, PRESETS[name_or_path])
-    path = Path(name_or_path)
-    if not path.is_file():
-        raise StictionError(
-            f"{name_or_path}: neither a study file nor a preset ({', '.join(PRESETS)})"
-        )
-    try:
-        data = tomllib.loads(path.read_text())
-    except (OSError, UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
-        raise StictionError(f"{path}: cannot read the study: {exc}") from None
-    return _from_toml(path.stem, data)
+    loaded = load_study(name_or_path)
+    return Design(
+        str(loaded.name),
+        str(loaded.method),
+        [float(v) for v in loaded.comparison_mu_s],
+        int(loaded.repetitions),
+    )
 
 
 def _analyze(args: argparse.Namespace) -> int:
