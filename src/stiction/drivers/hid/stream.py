@@ -13,6 +13,7 @@ from collections.abc import Callable
 from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
 from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
+from stiction.drivers.hid.report_code import ReportFn, compile_report
 from stiction.drivers.sample import PenSample
 from stiction.errors import DeviceError
 
@@ -85,6 +86,12 @@ class ReportStream:
         self.kind = device_kind(desc, pen_reports)
         self.stats: Counter[str] = Counter()
         self.tracker = ContactTracker(self.stats)
+        self._compiled: dict[int, tuple[ReportFn, int]] = {}
+        """Report ID -> its generated path (report_code.py) and the bytes it needs."""
+        for rid, m in self.mappings.items():
+            fn = compile_report(m, self.tracker.active, self.tracker.last, self.stats)
+            if fn is not None:
+                self._compiled[rid] = (fn, m.decoder.byte_size)
         first = next(iter(self.mappings.values()), None)
         self.surface_size: tuple[float, float] | None = None
         if first is not None:
@@ -98,7 +105,15 @@ class ReportStream:
         return []
 
     def feed(self, t: float, data: bytes) -> list[PenSample]:
-        self.stats["reports"] += 1
+        """The samples of one report received at `t`; a bad report is counted, never raised.
+
+        A report of a contact report ID runs that ID's generated path
+        (report_code.py: ContactTracker's work with the layout's answers
+        written in); finger reports with a Contact Count go through
+        ContactTracker itself.
+        """
+        stats = self.stats
+        stats["reports"] += 1
         self._last_report_t = t
         if self.fixup is not None and data:
             fixed = self.fixup(data)
@@ -109,6 +124,14 @@ class ReportStream:
         if not data:
             return self._bad("empty_reports", "empty report")
         rid = data[0] if self.numbered else 0
+        compiled = self._compiled.get(rid)
+        if compiled is not None and len(data) >= compiled[1]:
+            try:
+                samples = compiled[0](t, data)
+            except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover
+                return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
+            stats["samples"] += len(samples)
+            return samples
         m = self.mappings.get(rid)
         if m is None:
             if rid in self.known_ids:

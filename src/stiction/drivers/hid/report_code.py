@@ -1,0 +1,220 @@
+"""One report ID's whole path, decoded values -> PenSamples, as one generated function.
+
+`ReportStream.feed` runs for every report a tablet sends (every 4-8 ms, and
+millions of times in a replay). ContactTracker (pen.py) is the readable
+statement of what a report means: per contact it looks up which values the
+layout has, converts units, decides tip, range and tool, and builds a
+PenSample by keyword. Each of those steps is a dictionary lookup or a call
+that depends only on the layout, so most of its 6 us per report went on
+questions whose answer never changes for a device.
+
+`compile_report` asks them once: it writes a small function for one
+ReportMapping with the layout's element indices and constants already
+filled in, which decodes only the values the contacts use (inline, no
+tuple of all of them) and builds the samples without keyword arguments or
+the frozen dataclass's per-field ``object.__setattr__`` (see `_Blank`). It
+does what ContactTracker._sample does, operation for
+operation (the same float expressions in the same order, so the same
+samples bit for bit: tests/hid/test_hid_report_code.py runs both over every
+recording), and updates the tracker's `active` and `last` the same way.
+Layouts it does not cover -- finger reports with a Contact Count, whose
+contacts follow across reports -- get None and stay with ContactTracker.
+"""
+
+from __future__ import annotations
+
+from collections import Counter
+from collections.abc import Callable
+from typing import Any
+
+from stiction.drivers.hid.decoder import decode_statements
+from stiction.drivers.hid.pen import (
+    BARREL,
+    CONFIDENCE,
+    CONTACT_ID,
+    ERASER,
+    IN_RANGE,
+    INVERT,
+    SECONDARY_BARREL,
+    TIP_PRESSURE,
+    TIP_SWITCH,
+    X_TILT,
+    Y_TILT,
+    ContactLayout,
+    ReportMapping,
+)
+from stiction.drivers.sample import PenSample, Tool
+
+ReportFn = Callable[[float, bytes], list[PenSample]]
+"""(t, report bytes) -> the report's samples, tracker state and counters updated."""
+
+_SLOTS: tuple[str, ...] = PenSample.__slots__
+"""The sample's fields in declaration order."""
+
+
+class _Blank:
+    """A PenSample's memory layout without its frozen dataclass machinery.
+
+    Building a PenSample by keyword costs some 1.5 us: the frozen
+    dataclass's __init__ sets each of its eleven fields through
+    ``object.__setattr__``. A _Blank has the very same slots, so the
+    generated code fills them with plain attribute stores and then makes it
+    a PenSample by assigning ``__class__`` (allowed between classes of the
+    same layout), about five times cheaper. What comes out is an ordinary
+    frozen PenSample: equal, hashable and immutable like any other
+    (tests/hid/test_hid_report_code.py checks type, equality and
+    immutability).
+    """
+
+    __slots__ = _SLOTS
+
+
+def covered(m: ReportMapping) -> bool:
+    """Whether `compile_report` handles this mapping (else ContactTracker does)."""
+    return not (m.contact_count is not None and any(c.finger for c in m.contacts))
+
+
+def compile_report(
+    m: ReportMapping,
+    active: dict[int, bool],
+    last: dict[int, PenSample],
+    stats: Counter[str],
+) -> ReportFn | None:
+    """The generated path for one report ID, or None where `covered` says no.
+
+    `active`, `last` and `stats` are the ContactTracker's own dictionaries
+    and counters, which the generated code reads and writes in place.
+    """
+    if not covered(m):
+        return None
+    # Only the elements some contact reads are decoded, in report order.
+    used: list[int] = []
+    for c in m.contacts:
+        used.extend((c.x.element, c.y.element))
+        for usage in (
+            TIP_PRESSURE,
+            TIP_SWITCH,
+            ERASER,
+            INVERT,
+            IN_RANGE,
+            CONTACT_ID,
+            CONFIDENCE,
+            BARREL,
+            SECONDARY_BARREL,
+            X_TILT,
+            Y_TILT,
+        ):
+            if usage in c.el:
+                used.append(c.el[usage])
+    order = sorted(set(used), key=lambda i: (m.decoder.elements[i].bit_offset, i))
+    name_of = {i: f"e{i}" for i in order}
+    ns: dict[str, Any] = {
+        "new": object.__new__,
+        "PenSample": PenSample,
+        "Blank": _Blank,
+        "active": active,
+        "last": last,
+        "stats": stats,
+        "PEN": Tool.PEN,
+        "ERASER": Tool.ERASER,
+        "FINGER": Tool.FINGER,
+    }
+    lines = ["def report(t, d):"]
+    elements = [m.decoder.elements[i] for i in order]
+    names = [name_of[i] for i in order]
+    lines.extend("    " + s for s in decode_statements(elements, names, ns))
+    lines.append("    out = []")
+    for k, c in enumerate(m.contacts):
+        lines.extend(_contact_lines(k, c, name_of, ns))
+    lines.append("    return out")
+    source = "\n".join(lines)
+    exec(compile(source, f"<hid report {m.decoder.report_id} samples>", "exec"), ns)
+    fn = ns["report"]
+    fn.source = source  # for a reader wondering what runs
+    return fn  # type: ignore[no-any-return]
+
+
+def _contact_lines(
+    k: int, c: ContactLayout, name_of: dict[int, str], ns: dict[str, Any]
+) -> list[str]:
+    """ContactTracker._sample for contact `k`, with the layout's answers written in."""
+    el = c.el
+
+    def v(usage: int) -> str:
+        return name_of[el[usage]]
+
+    def const(label: str, value: object) -> str:
+        key = f"c{k}_{label}"
+        ns[key] = value
+        return key
+
+    out: list[str] = []
+    add = out.append
+    if TIP_PRESSURE in el and c.pressure_span > 0:
+        pmin, pspan = const("pmin", c.pressure_min), const("pspan", c.pressure_span)
+        add(f"    pressure = min(max(({v(TIP_PRESSURE)} - {pmin}) / {pspan}, 0.0), 1.0)")
+    else:
+        add("    pressure = None")
+    invert = INVERT in el
+    add(f"    inverted = {v(INVERT)} != 0" if invert else "    inverted = False")
+    if ERASER in el:
+        guard = " and inverted" if invert else ""
+        add(f"    eraser = {v(ERASER)} != 0{guard}")
+    else:
+        add("    eraser = False")
+    if TIP_SWITCH in el:
+        add(f"    tip = {v(TIP_SWITCH)} != 0 or eraser")
+    else:
+        add("    tip = pressure is not None and pressure > 0.0")
+    if c.finger:
+        add(f"    contact = 1 + {v(CONTACT_ID)}" if CONTACT_ID in el else "    contact = 1")
+        if CONFIDENCE in el:
+            add(f"    in_range = tip and {v(CONFIDENCE)} != 0")
+        else:
+            add("    in_range = tip")
+        add("    tip = in_range")
+        add("    tool = FINGER")
+    else:
+        add("    contact = 0")
+        if IN_RANGE in el:
+            add(f"    in_range = {v(IN_RANGE)} != 0 or tip")
+        else:
+            add("    in_range = True")
+        add("    tool = ERASER if (eraser or inverted) else PEN")
+    add("    if in_range or active.get(contact, False):")
+    add("        active[contact] = in_range")
+    xmin, xmpu = const("xmin", c.x.logical_min), const("xmpu", c.x.metres_per_unit)
+    ymin, ympu = const("ymin", c.y.logical_min), const("ympu", c.y.metres_per_unit)
+    w, h = const("w", c.width_m), const("h", c.height_m)
+    add(f"        x = ({name_of[c.x.element]} - {xmin}) * {xmpu}")
+    add(f"        y = ({name_of[c.y.element]} - {ymin}) * {ympu}")
+    add(f"        if not (0.0 <= x <= {w} and 0.0 <= y <= {h}):")
+    add('            stats["clamped_positions"] += 1')
+    add(f"            x = min(max(x, 0.0), {w})")
+    add(f"            y = min(max(y, 0.0), {h})")
+    b1 = f"(1 if {v(BARREL)} else 0)" if BARREL in el else "0"
+    b2 = f"(2 if {v(SECONDARY_BARREL)} else 0)" if SECONDARY_BARREL in el else "0"
+    tx = f"{v(X_TILT)} * {const('txd', c.tilt_x_deg)}" if X_TILT in el else "None"
+    ty = f"{v(Y_TILT)} * {const('tyd', c.tilt_y_deg)}" if Y_TILT in el else "None"
+    values = {
+        "t": "t",
+        "x": "x",
+        "y": "y",
+        "tip": "tip and in_range",
+        "in_range": "in_range",
+        "contact": "contact",
+        "pressure": "pressure",
+        "tool": "tool",
+        "tilt_x": tx,
+        "tilt_y": ty,
+        "buttons": f"{b1} | {b2}",
+    }
+    if set(values) != set(_SLOTS):  # pragma: no cover - PenSample grew a field
+        raise RuntimeError(f"PenSample's fields changed: {_SLOTS}; update report_code.py")
+    add("        s = new(Blank)")
+    for field in _SLOTS:
+        add(f"        s.{field} = {values[field]}")
+    add("        s.__class__ = PenSample")
+    add("        last[contact] = s")
+    add("        out.append(s)")
+    return out
