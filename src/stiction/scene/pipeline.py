@@ -359,6 +359,29 @@ class _Slots:
         """Live contact ids, ascending, and their slots: the output order."""
         self.order_slots = np.zeros(0, dtype=np.int64)
         self.pos_of = np.full(64, -1, dtype=np.int64)
+        self.iw = np.zeros((3, 0), dtype=np.int64)
+        self.fw = np.zeros((4, 0))
+        self.bw = np.zeros((2, 0), dtype=np.bool_)
+        """The compiled tick's scratch space (it allocates nothing itself)."""
+        self.aff_key: tuple[float, ...] = ()
+        self.aff = np.zeros(6)
+
+    def affine(self, coefficients: tuple[float, ...]) -> npt.NDArray[np.float64]:
+        """The mapping's affine coefficients as the array the tick takes (made once per change)."""
+        if coefficients != self.aff_key:
+            self.aff_key = coefficients
+            self.aff = np.array(coefficients, dtype=np.float64)
+        return self.aff
+
+    def scratch(self, samples: int, contacts: int) -> tuple[Any, Any, Any]:
+        """Scratch rows long enough for a tick of `samples` samples over `contacts` contacts."""
+        need = tick.scratch_size(samples, contacts)
+        if self.iw.shape[1] < need:
+            size = max(need, 2 * self.iw.shape[1], 64)
+            self.iw = np.zeros((3, size), dtype=np.int64)
+            self.fw = np.zeros((4, size))
+            self.bw = np.zeros((2, size), dtype=np.bool_)
+        return self.iw, self.fw, self.bw
 
     def grow(self) -> None:
         old = self.L.shape[0]
@@ -613,10 +636,11 @@ class Pipeline:
         else:
             fn = compiled.fn  # compiles now, at this first call
         mapping: Any = dev.mapping
-        aff = np.array(mapping.affine())
+        aff = slots.affine(mapping.affine())
         n = -1
         out = np.empty((max(len(dev.tracks), 1), tick.OCOLS))
         for _ in range(2):
+            iw, fw, bw = slots.scratch(s.contact.shape[0], slots.order_ids.shape[0])
             n = fn(
                 slots.S,
                 slots.L,
@@ -640,6 +664,9 @@ class Pipeline:
                 t,
                 prev_t,
                 out,
+                iw,
+                fw,
+                bw,
             )
             if n >= 0:
                 break
@@ -652,8 +679,8 @@ class Pipeline:
         values = out[:n]
         ids = slots.order_ids
         result = ContactArrays(ids, values, self.names, self.string, self.pressure)
-        ended = values[:, tick.OPHASE] == tick.UP_C
-        if ended.any():
+        if slots.iw[2, n]:  # the tick counted contacts that ended
+            ended = values[:, tick.OPHASE] == tick.UP_C
             known = dev.tracks
             for cid in ids[ended].tolist():
                 i = known.pop(cid)
@@ -716,6 +743,7 @@ class Pipeline:
             0.0,
             -math.inf,
             np.empty((n, tick.OCOLS)),
+            *slots.scratch(n, n),
         )
         compiled.ready.set()
 
