@@ -314,7 +314,14 @@ class FrameAssembler:
                         self._dirty_all = True  # tool, tip and buttons follow the keys
                     out.append(self._commit(sec, usec))
                     n = 0
-                    self._end_frame()
+                    # self._end_frame(), inline: this runs at every frame
+                    if undo_abs:
+                        undo_abs.clear()
+                    if undo_slots:
+                        undo_slots.clear()
+                    self._keys_ok = None
+                    self._slot_start = (self._slot, self._slot_ok)
+                    self._seen_start = self._seen_position
                 elif code == SYN_DROPPED:
                     stats["syn_dropped"] += 1
                     stats["events_discarded"] += n
@@ -329,7 +336,7 @@ class FrameAssembler:
         return out
 
     def _end_frame(self) -> None:
-        """The frame is committed: forget how to undo it."""
+        """The frame is committed: forget how to undo it (feed_many has its own copy)."""
         if self._undo_abs:
             self._undo_abs.clear()
         if self._undo_slots:

@@ -12,7 +12,8 @@ questions whose answer never changes for a device.
 ReportMapping with the layout's element indices and constants already
 filled in, which decodes only the values the contacts use (inline, no
 tuple of all of them) and builds the samples without keyword arguments or
-the frozen dataclass's per-field ``object.__setattr__`` (see `_Blank`). It
+the frozen dataclass's per-field ``object.__setattr__`` (see
+stiction.drivers.blank_sample). It
 does what ContactTracker._sample does, operation for
 operation (the same float expressions in the same order, so the same
 samples bit for bit: tests/hid/test_hid_report_code.py runs both over every
@@ -27,6 +28,7 @@ from collections import Counter
 from collections.abc import Callable
 from typing import Any
 
+from stiction.drivers.blank_sample import FIELDS, BlankSample, new
 from stiction.drivers.hid.decoder import decode_statements
 from stiction.drivers.hid.pen import (
     BARREL,
@@ -48,25 +50,7 @@ from stiction.drivers.sample import PenSample, Tool
 ReportFn = Callable[[float, bytes], list[PenSample]]
 """(t, report bytes) -> the report's samples, tracker state and counters updated."""
 
-_SLOTS: tuple[str, ...] = PenSample.__slots__
-"""The sample's fields in declaration order."""
-
-
-class _Blank:
-    """A PenSample's memory layout without its frozen dataclass machinery.
-
-    Building a PenSample by keyword costs some 1.5 us: the frozen
-    dataclass's __init__ sets each of its eleven fields through
-    ``object.__setattr__``. A _Blank has the very same slots, so the
-    generated code fills them with plain attribute stores and then makes it
-    a PenSample by assigning ``__class__`` (allowed between classes of the
-    same layout), about five times cheaper. What comes out is an ordinary
-    frozen PenSample: equal, hashable and immutable like any other
-    (tests/hid/test_hid_report_code.py checks type, equality and
-    immutability).
-    """
-
-    __slots__ = _SLOTS
+_SLOTS = FIELDS
 
 
 def covered(m: ReportMapping) -> bool:
@@ -109,9 +93,9 @@ def compile_report(
     order = sorted(set(used), key=lambda i: (m.decoder.elements[i].bit_offset, i))
     name_of = {i: f"e{i}" for i in order}
     ns: dict[str, Any] = {
-        "new": object.__new__,
+        "new": new,
         "PenSample": PenSample,
-        "Blank": _Blank,
+        "Blank": BlankSample,
         "active": active,
         "last": last,
         "stats": stats,
