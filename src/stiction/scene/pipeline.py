@@ -690,19 +690,25 @@ class Pipeline:
             slots.reorder(known)
         return result
 
-    def warm_up(self, wait: float = WARM_UP_WAIT_S) -> bool:
+    def warm_up(self, wait: float | None = None) -> bool:
         """Compile (or load from numba's cache) the batch tick before the first tick.
 
         The daemon calls this before it starts its clock. Compiling runs on a
-        background thread; this waits up to `wait` seconds for it (loading
-        from the cache takes well under that). If it is not done by then,
-        ticks run the tick as plain Python until it is, so the first frame
-        is not held up by a first compilation. Returns whether the compiled
-        tick is ready.
+        background thread; this waits up to `wait` seconds for it. By
+        default that is WARM_UP_WAIT_S when numba's cache holds the tick
+        (loading it takes well under that), and no wait at all when it does
+        not: compiling takes seconds to a minute, and waiting 2 s of it
+        would only hold up the first frame. Until the thread is done, ticks
+        run the tick as plain Python, so a first compilation never holds up
+        the first frame. Returns whether the compiled tick is ready.
         """
-        _, _, compiled = self._ready()
+        stepper, _, compiled = self._ready()
         if compiled.ready.is_set():
             return True
+        if wait is None:
+            cached = getattr(stepper, "is_cached", None)
+            known = cached(compiled.fn) if cached is not None else None
+            wait = 0.0 if known is False else WARM_UP_WAIT_S
         if not compiled.background:
             compiled.background = True
             threading.Thread(
