@@ -628,8 +628,9 @@ class Pipeline:
     ) -> ContactArrays:
         """Advance every contact of one device to `t`; the result as arrays."""
         slots = self._slots(dev)
-        _, table, compiled = self._ready()
-        if compiled.ready.is_set():
+        table, compiled = self._table, self._tick  # set by _slots' _ready()
+        ready = compiled.ready.is_set()
+        if ready:
             fn = compiled.fn
         elif compiled.background:
             fn = tick.tick  # still compiling on the warm-up thread
@@ -674,7 +675,7 @@ class Pipeline:
                 raise RuntimeError(f"scene tick refused its arguments ({n})")
             self._add_contacts(dev, slots, s)
             out = np.empty((len(dev.tracks), tick.OCOLS))
-        if fn is compiled.fn:
+        if not ready and fn is compiled.fn:
             compiled.ready.set()
         values = out[:n]
         ids = slots.order_ids
