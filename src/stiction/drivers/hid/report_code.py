@@ -136,7 +136,13 @@ def _contact_lines(
     add = out.append
     if TIP_PRESSURE in el and c.pressure_span > 0:
         pmin, pspan = const("pmin", c.pressure_min), const("pspan", c.pressure_span)
-        add(f"    pressure = min(max(({v(TIP_PRESSURE)} - {pmin}) / {pspan}, 0.0), 1.0)")
+        # min(max(p, 0.0), 1.0) without the two calls: the same value for any
+        # finite p (a quotient of integers is never NaN or -0.0).
+        add(f"    pressure = ({v(TIP_PRESSURE)} - {pmin}) / {pspan}")
+        add("    if pressure < 0.0:")
+        add("        pressure = 0.0")
+        add("    elif pressure > 1.0:")
+        add("        pressure = 1.0")
     else:
         add("    pressure = None")
     invert = INVERT in el
@@ -176,8 +182,8 @@ def _contact_lines(
     add('            stats["clamped_positions"] += 1')
     add(f"            x = min(max(x, 0.0), {w})")
     add(f"            y = min(max(y, 0.0), {h})")
-    b1 = f"(1 if {v(BARREL)} else 0)" if BARREL in el else "0"
-    b2 = f"(2 if {v(SECONDARY_BARREL)} else 0)" if SECONDARY_BARREL in el else "0"
+    bits = [f"(1 if {v(BARREL)} else 0)"] if BARREL in el else []
+    bits += [f"(2 if {v(SECONDARY_BARREL)} else 0)"] if SECONDARY_BARREL in el else []
     tx = f"{v(X_TILT)} * {const('txd', c.tilt_x_deg)}" if X_TILT in el else "None"
     ty = f"{v(Y_TILT)} * {const('tyd', c.tilt_y_deg)}" if Y_TILT in el else "None"
     values = {
@@ -191,7 +197,7 @@ def _contact_lines(
         "tool": "tool",
         "tilt_x": tx,
         "tilt_y": ty,
-        "buttons": f"{b1} | {b2}",
+        "buttons": " | ".join(bits) or "0",
     }
     if set(values) != set(_SLOTS):  # pragma: no cover - PenSample grew a field
         raise RuntimeError(f"PenSample's fields changed: {_SLOTS}; update report_code.py")
