@@ -107,10 +107,12 @@ def compile_report(
     elements = [m.decoder.elements[i] for i in order]
     names = [name_of[i] for i in order]
     lines.extend("    " + s for s in decode_statements(elements, names, ns))
-    lines.append("    out = []")
+    single = len(m.contacts) == 1  # the usual pen report: no list to append to
+    if not single:
+        lines.append("    out = []")
     for k, c in enumerate(m.contacts):
-        lines.extend(_contact_lines(k, c, name_of, ns))
-    lines.append("    return out")
+        lines.extend(_contact_lines(k, c, name_of, ns, single))
+    lines.append("    return []" if single else "    return out")
     source = "\n".join(lines)
     exec(compile(source, f"<hid report {m.decoder.report_id} samples>", "exec"), ns)
     fn = ns["report"]
@@ -119,7 +121,7 @@ def compile_report(
 
 
 def _contact_lines(
-    k: int, c: ContactLayout, name_of: dict[int, str], ns: dict[str, Any]
+    k: int, c: ContactLayout, name_of: dict[int, str], ns: dict[str, Any], single: bool
 ) -> list[str]:
     """ContactTracker._sample for contact `k`, with the layout's answers written in."""
     el = c.el
@@ -206,5 +208,5 @@ def _contact_lines(
         add(f"        s.{field} = {values[field]}")
     add("        s.__class__ = PenSample")
     add("        last[contact] = s")
-    add("        out.append(s)")
+    add("        return [s]" if single else "        out.append(s)")
     return out

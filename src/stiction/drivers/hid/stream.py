@@ -84,12 +84,16 @@ class ReportStream:
         self.numbered = desc.numbered
         self.known_ids = set(desc.input_reports)
         self.kind = device_kind(desc, pen_reports)
-        self.stats: Counter[str] = Counter()
-        self.tracker = ContactTracker(self.stats)
+        self._counts: Counter[str] = Counter()
+        self._fed = 0
+        self._made = 0
+        self._sampled = False
+        """`reports` and `samples` as plain ints on the hot path (see `stats`)."""
+        self.tracker = ContactTracker(self._counts)
         self._compiled: dict[int, tuple[ReportFn, int]] = {}
         """Report ID -> its generated path (report_code.py) and the bytes it needs."""
         for rid, m in self.mappings.items():
-            fn = compile_report(m, self.tracker.active, self.tracker.last, self.stats)
+            fn = compile_report(m, self.tracker.active, self.tracker.last, self._counts)
             if fn is not None:
                 self._compiled[rid] = (fn, m.decoder.byte_size)
         first = next(iter(self.mappings.values()), None)
@@ -98,9 +102,25 @@ class ReportStream:
             c = first.contacts[0]
             self.surface_size = (c.width_m, c.height_m)
 
+    @property
+    def stats(self) -> Counter[str]:
+        """The counters (see the class doc).
+
+        Two counters move at every report; a Counter's `+=` is a lookup and
+        a store on a dict subclass, so feed keeps them as ints, written into
+        the Counter here. Only the feeding thread changes the ints; a reader
+        copies them, so no count is lost to a reader on another thread.
+        """
+        c = self._counts
+        if self._fed:
+            c["reports"] = self._fed
+        if self._sampled:
+            c["samples"] = self._made
+        return c
+
     def _bad(self, what: str, message: str) -> list[PenSample]:
-        self.stats[what] += 1
-        if self.stats[what] <= self.LOG_FIRST:
+        self._counts[what] += 1
+        if self._counts[what] <= self.LOG_FIRST:
             log.warning("%s: %s (skipped)", self.device, message)
         return []
 
@@ -112,13 +132,12 @@ class ReportStream:
         written in); finger reports with a Contact Count go through
         ContactTracker itself.
         """
-        stats = self.stats
-        stats["reports"] += 1
+        self._fed += 1
         self._last_report_t = t
         if self.fixup is not None and data:
             fixed = self.fixup(data)
             if fixed is None:
-                self.stats["ignored"] += 1
+                self._counts["ignored"] += 1
                 return []
             data = fixed
         if not data:
@@ -130,12 +149,13 @@ class ReportStream:
                 samples = compiled[0](t, data)
             except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover
                 return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
-            stats["samples"] += len(samples)
+            self._made += len(samples)
+            self._sampled = True
             return samples
         m = self.mappings.get(rid)
         if m is None:
             if rid in self.known_ids:
-                self.stats["ignored"] += 1
+                self._counts["ignored"] += 1
                 return []
             return self._bad("unknown_report_id", f"report ID {rid} is not in the descriptor")
         if len(data) < m.decoder.byte_size:
@@ -148,7 +168,8 @@ class ReportStream:
             samples = self.tracker.samples(t, m, values)
         except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover - defensive
             return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
-        self.stats["samples"] += len(samples)
+        self._made += len(samples)
+        self._sampled = True
         return samples
 
     def idle(self, t: float) -> list[PenSample]:
@@ -165,5 +186,6 @@ class ReportStream:
         ):
             return []
         samples = self.tracker.leave_all(t)
-        self.stats["samples"] += len(samples)
+        self._made += len(samples)
+        self._sampled = True
         return samples
