@@ -29,7 +29,11 @@ FILES = sorted(p.stem for p in DATA.glob("*.hid"))
 SIZE = (0.2, 0.1)
 
 
-def _streams(name: str) -> tuple[ReportStream, ReportStream, list[tuple[float, bytes]]]:
+def _streams(
+    name: str, per_report: bool = False
+) -> tuple[ReportStream, ReportStream, list[tuple[float, bytes]]]:
+    """The generated stream feed (or, with `per_report`, the feed method calling
+    each report ID's generated function) and the ContactTracker reference."""
     rec = load_recording(DATA / f"{name}.hid")
     desc = parse_descriptor(rec.descriptor)
     entry = lookup(rec.vid, rec.pid)
@@ -38,7 +42,9 @@ def _streams(name: str) -> tuple[ReportStream, ReportStream, list[tuple[float, b
         slow = ReportStream(desc, name, SIZE, entry)
     except DeviceError:
         pytest.skip(f"{name}: no contact report (refused by design)")
-    slow._compiled.clear()  # the reference: ContactTracker for every report
+    if per_report:
+        fast.feed = fast._feed
+    slow.use_tracker()  # the reference: ContactTracker for every report
     return fast, slow, [(ev.t, ev.data) for ev in rec.events]
 
 
@@ -61,19 +67,21 @@ def _run(fast: ReportStream, slow: ReportStream, reports: list[tuple[float, byte
     _same(fast.idle(math.inf), slow.idle(math.inf))
 
 
+@pytest.mark.parametrize("per_report", [False, True], ids=["stream-feed", "report-fn"])
 @pytest.mark.parametrize("name", FILES)
-def test_generated_path_matches_the_tracker(name: str) -> None:
-    fast, slow, reports = _streams(name)
+def test_generated_path_matches_the_tracker(name: str, per_report: bool) -> None:
+    fast, slow, reports = _streams(name, per_report)
     _run(fast, slow, reports)
     if reports and any(covered(m) for m in fast.mappings.values()):
         assert fast._compiled, "a covered report ID got no generated path"
         assert fast.stats["samples"] > 0 or fast.stats["ignored"] > 0
 
 
+@pytest.mark.parametrize("per_report", [False, True], ids=["stream-feed", "report-fn"])
 @pytest.mark.parametrize("name", FILES)
-def test_generated_path_matches_on_flipped_bits(name: str) -> None:
+def test_generated_path_matches_on_flipped_bits(name: str, per_report: bool) -> None:
     """Every report with one bit flipped (and some with random bytes): all branches."""
-    fast, slow, reports = _streams(name)
+    fast, slow, reports = _streams(name, per_report)
     rng = random.Random(name)
     mutated: list[tuple[float, bytes]] = []
     for i, (t, data) in enumerate(reports[:400]):

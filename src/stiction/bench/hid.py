@@ -116,7 +116,7 @@ def _bench_recording(path: Path, repeat: int, sample: int) -> dict[str, Any] | N
         for _ in range(repeat):
             stream = ReportStream(desc, rec.name, (0.2, 0.1), entry)
             if not generated:
-                stream._compiled.clear()  # every report through ContactTracker
+                stream.use_tracker()  # every report through ContactTracker
             feed = stream.feed
             t0 = time.perf_counter()
             for i, data in enumerate(reports):
