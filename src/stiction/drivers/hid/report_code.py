@@ -1,4 +1,4 @@
-"""One report ID's whole path, decoded values -> PenSamples, as one generated function.
+"""A device's path from report bytes to PenSamples, generated once from its layout.
 
 `ReportStream.feed` runs for every report a tablet sends (every 4-8 ms, and
 millions of times in a replay). ContactTracker (pen.py) is the readable
@@ -8,18 +8,19 @@ PenSample by keyword. Each of those steps is a dictionary lookup or a call
 that depends only on the layout, so most of its 6 us per report went on
 questions whose answer never changes for a device.
 
-`compile_report` asks them once: it writes a small function for one
-ReportMapping with the layout's element indices and constants already
-filled in, which decodes only the values the contacts use (inline, no
-tuple of all of them) and builds the samples without keyword arguments or
-the frozen dataclass's per-field ``object.__setattr__`` (see
-stiction.drivers.blank_sample). It
-does what ContactTracker._sample does, operation for
-operation (the same float expressions in the same order, so the same
-samples bit for bit: tests/hid/test_hid_report_code.py runs both over every
-recording), and updates the tracker's `active` and `last` the same way.
-Layouts it does not cover -- finger reports with a Contact Count, whose
-contacts follow across reports -- get None and stay with ContactTracker.
+Here they are asked once. `compile_feed` writes the device's whole feed as
+one function: the counting, the fix-up, and per contact report ID a branch
+with the layout's element indices and constants filled in, which decodes
+only the values the contacts use (inline, no tuple of all of them) and
+builds the samples without keyword arguments or the frozen dataclass's
+per-field ``object.__setattr__`` (see stiction.drivers.blank_sample);
+`compile_report` writes one report ID's path alone. Both do what
+ContactTracker._sample does, operation for operation (the same float
+expressions in the same order, so the same samples bit for bit:
+tests/hid/test_hid_report_code.py runs them against ContactTracker over
+every recording), and update the tracker's `active` and `last` the same
+way. Layouts they do not cover -- finger reports with a Contact Count,
+whose contacts follow across reports -- stay with ContactTracker.
 """
 
 from __future__ import annotations
