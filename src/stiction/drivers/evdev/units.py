@@ -16,7 +16,7 @@ from typing import Any
 
 from evdev import ecodes
 
-from stiction.drivers.blank_sample import BlankSample, new
+from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import Contact
 from stiction.drivers.sample import PenSample
@@ -116,7 +116,7 @@ class SurfaceUnits:
         tx, ty = self._tilt_x, self._tilt_y
         # PenSample(...) field by field, at a fifth of the keyword __init__'s
         # cost (stiction.drivers.blank_sample).
-        s: Any = new(BlankSample)
+        s: Any = BlankSample()
         s.t = t
         s.x = (x - x0) / self._rx / 1000
         s.y = (y - y0) / self._ry / 1000

@@ -29,7 +29,7 @@ from collections import Counter
 from collections.abc import Callable
 from typing import Any, Protocol
 
-from stiction.drivers.blank_sample import FIELDS, BlankSample, new
+from stiction.drivers.blank_sample import FIELDS, BlankSample
 from stiction.drivers.hid.decoder import decode_statements
 from stiction.drivers.hid.pen import (
     BARREL,
@@ -61,7 +61,6 @@ def covered(m: ReportMapping) -> bool:
 
 def _namespace(active: dict[int, bool], last: dict[int, PenSample], stats: Counter[str]) -> Any:
     return {
-        "new": new,
         "PenSample": PenSample,
         "Blank": BlankSample,
         "active": active,
@@ -173,8 +172,11 @@ def compile_feed(
     ns.update(st=stream, fixup=fixup, DecodeErrors=(ValueError, IndexError, OverflowError))
 
     def ret(value: str, count: str) -> list[str]:
-        made = [] if count == "0" else [f"st._made += {count}"]
-        return ["st._sampled = True", *made, f"return {value}"]
+        # A report that made samples says so through _made (ReportStream.stats).
+        counting = ["st._sampled = True"] if count == "0" else [f"st._made += {count}"]
+        if count not in ("0", "1"):
+            counting.insert(0, "st._sampled = True")  # len(out) may be 0
+        return [*counting, f"return {value}"]
 
     lines = ["def feed(t, d):", "    st._fed += 1", "    st._last_report_t = t"]
     if fixup is not None:
@@ -248,7 +250,8 @@ def _contact_lines(
     else:
         add("pressure = None")
     invert = INVERT in el
-    add(f"inverted = {v(INVERT)} != 0" if invert else "inverted = False")
+    if invert:
+        add(f"inverted = {v(INVERT)} != 0")
     if ERASER in el:
         guard = " and inverted" if invert else ""
         add(f"eraser = {v(ERASER)} != 0{guard}")
@@ -272,7 +275,7 @@ def _contact_lines(
             add(f"in_range = {v(IN_RANGE)} != 0 or tip")
         else:
             add("in_range = True")
-        add("tool = ERASER if (eraser or inverted) else PEN")
+        add(f"tool = ERASER if ({'eraser or inverted' if invert else 'eraser'}) else PEN")
     add("if in_range or active.get(contact, False):")
     add("    active[contact] = in_range")
     xmin, xmpu = const("xmin", c.x.logical_min), const("xmpu", c.x.metres_per_unit)
@@ -292,7 +295,7 @@ def _contact_lines(
         "t": "t",
         "x": "x",
         "y": "y",
-        "tip": "tip and in_range",
+        "tip": "tip",  # tip and in_range: a touch is always in range (pen or finger)
         "in_range": "in_range",
         "contact": "contact",
         "pressure": "pressure",
@@ -303,7 +306,7 @@ def _contact_lines(
     }
     if set(values) != set(_SLOTS):  # pragma: no cover - PenSample grew a field
         raise RuntimeError(f"PenSample's fields changed: {_SLOTS}; update report_code.py")
-    add("    s = new(Blank)")
+    add("    s = Blank()")
     for field in _SLOTS:
         add(f"    s.{field} = {values[field]}")
     add("    s.__class__ = PenSample")

@@ -126,7 +126,7 @@ class ReportStream:
         c = self._counts
         if self._fed:
             c["reports"] = self._fed
-        if self._sampled:
+        if self._sampled or self._made:
             c["samples"] = self._made
         return c
 
