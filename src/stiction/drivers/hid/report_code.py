@@ -25,6 +25,7 @@ whose contacts follow across reports -- stay with ContactTracker.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from collections.abc import Callable
 from typing import Any, Protocol
@@ -232,6 +233,10 @@ def _contact_lines(
         return name_of[el[usage]]
 
     def const(label: str, value: object) -> str:
+        # A number is written as a literal (repr gives back the same float or
+        # int, bit for bit): a constant then costs nothing to load.
+        if type(value) is int or (type(value) is float and math.isfinite(value)):
+            return f"({value!r})"
         key = f"{prefix}{label}"
         ns[key] = value
         return key
@@ -242,7 +247,7 @@ def _contact_lines(
         pmin, pspan = const("pmin", c.pressure_min), const("pspan", c.pressure_span)
         # min(max(p, 0.0), 1.0) without the two calls: the same value for any
         # finite p (a quotient of integers is never NaN or -0.0).
-        add(f"pressure = ({v(TIP_PRESSURE)} - {pmin}) / {pspan}")
+        add(f"pressure = {_minus(v(TIP_PRESSURE), pmin)} / {pspan}")
         add("if pressure < 0.0:")
         add("    pressure = 0.0")
         add("elif pressure > 1.0:")
@@ -281,8 +286,8 @@ def _contact_lines(
     xmin, xmpu = const("xmin", c.x.logical_min), const("xmpu", c.x.metres_per_unit)
     ymin, ympu = const("ymin", c.y.logical_min), const("ympu", c.y.metres_per_unit)
     w, h = const("w", c.width_m), const("h", c.height_m)
-    add(f"    x = ({name_of[c.x.element]} - {xmin}) * {xmpu}")
-    add(f"    y = ({name_of[c.y.element]} - {ymin}) * {ympu}")
+    add(f"    x = {_minus(name_of[c.x.element], xmin)} * {xmpu}")
+    add(f"    y = {_minus(name_of[c.y.element], ymin)} * {ympu}")
     add(f"    if not (0.0 <= x <= {w} and 0.0 <= y <= {h}):")
     add('        stats["clamped_positions"] += 1')
     add(f"        x = min(max(x, 0.0), {w})")
@@ -316,3 +321,8 @@ def _contact_lines(
     else:
         out.extend(_indent(ret("[s]", "1"), 1))
     return out
+
+
+def _minus(value: str, minimum: str) -> str:
+    """``(value - minimum)``; the integer itself when the minimum is a literal 0."""
+    return value if minimum == "(0)" else f"({value} - {minimum})"
