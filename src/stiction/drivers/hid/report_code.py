@@ -160,8 +160,12 @@ def compile_feed(
     active: dict[int, bool],
     last: dict[int, PenSample],
     stats: Counter[str],
+    ignored: frozenset[int] = frozenset(),
 ) -> ReportFn:
     """ReportStream.feed for this device as one generated function.
+
+    `ignored`: the input report IDs that carry no contact (counted as
+    ignored).
 
     Counting, the fix-up, the choice of report ID and every covered report
     ID's path are written out in one function (a report then costs one
@@ -206,6 +210,15 @@ def compile_feed(
             ],
             1,
         )
+    if numbered and ignored:
+        # Input reports that carry no contact (vendor data, mouse emulation):
+        # counted and dropped here, as _rest would.
+        ns["IGNORED"] = frozenset(ignored)
+        branches += [
+            f"{'if' if not branches else 'elif'} rid in IGNORED:",
+            '    stats["ignored"] += 1',
+            "    return []",
+        ]
     if branches:
         lines += ["    if d:"]
         if numbered:

@@ -98,7 +98,14 @@ class ReportStream:
             if fn is not None:
                 self._compiled[rid] = (fn, m.decoder.byte_size)
         self.feed: ReportFn = compile_feed(
-            self, self.mappings, self.numbered, self.fixup, active, last, self._counts
+            self,
+            self.mappings,
+            self.numbered,
+            self.fixup,
+            active,
+            last,
+            self._counts,
+            frozenset(self.known_ids - set(self.mappings)),
         )
         """The samples of one report received at `t`; a bad report is counted, never raised.
 
