@@ -116,3 +116,22 @@ def test_generated_samples_are_ordinary_frozen_pen_samples() -> None:
         s.x = 1.0  # type: ignore[misc]
     assert hash(s) == hash(dataclasses.replace(s)) and s == dataclasses.replace(s)
     assert dataclasses.asdict(s)["t"] == s.t
+
+
+def test_generated_feed_keeps_report_times_for_the_proximity_timeout() -> None:
+    """With a proximity timeout, idle() ends the pen after the last report, as before."""
+    rec = load_recording(DATA / "xp-pen-artist-10s.hid")
+    desc = parse_descriptor(rec.descriptor)
+    fast = ReportStream(desc, rec.name, SIZE, proximity_timeout=0.05)
+    slow = ReportStream(desc, rec.name, SIZE, proximity_timeout=0.05)
+    slow.use_tracker()
+    ended = 0
+    for ev in rec.events[:1500]:
+        _same(fast.feed(ev.t, ev.data), slow.feed(ev.t, ev.data))
+        a, b = fast.idle(ev.t + 0.03), slow.idle(ev.t + 0.03)  # within the timeout
+        _same(a, b)
+        assert a == []
+        a, b = fast.idle(ev.t + 0.2), slow.idle(ev.t + 0.2)  # beyond it
+        _same(a, b)
+        ended += len(a)
+    assert ended > 0 and fast.stats == slow.stats

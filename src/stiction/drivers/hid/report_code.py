@@ -161,11 +161,13 @@ def compile_feed(
     last: dict[int, PenSample],
     stats: Counter[str],
     ignored: frozenset[int] = frozenset(),
+    timed: bool = True,
 ) -> ReportFn:
     """ReportStream.feed for this device as one generated function.
 
     `ignored`: the input report IDs that carry no contact (counted as
-    ignored).
+    ignored). `timed`: the stream has a proximity timeout, so the time of
+    the last report is kept.
 
     Counting, the fix-up, the choice of report ID and every covered report
     ID's path are written out in one function (a report then costs one
@@ -183,7 +185,9 @@ def compile_feed(
             counting.insert(0, "st._sampled = True")  # len(out) may be 0
         return [*counting, f"return {value}"]
 
-    lines = ["def feed(t, d):", "    st._fed += 1", "    st._last_report_t = t"]
+    lines = ["def feed(t, d):", "    st._fed += 1"]
+    if timed:  # only ReportStream.idle reads it, and only with a proximity timeout
+        lines.append("    st._last_report_t = t")
     if fixup is not None:
         lines += [
             "    if d:",

@@ -47,7 +47,8 @@ class ReportStream:
         `fixup` rewrites each raw report before decoding (vendor formats the
         descriptor cannot express); returning None drops the report as ignored.
         `proximity_timeout`: for tablets that report no in-range state, the
-        pen counts as gone this many seconds after its last report (see `idle`).
+        pen counts as gone this many seconds after its last report (see `idle`);
+        fixed here (the generated feed keeps report times only when it is set).
         """
         if fixup is None and entry is not None and entry.descriptor is not None:
             # The device table's descriptor replaces the device's own on every
@@ -106,6 +107,7 @@ class ReportStream:
             last,
             self._counts,
             frozenset(self.known_ids - set(self.mappings)),
+            timed=proximity_timeout is not None,
         )
         """The samples of one report received at `t`; a bad report is counted, never raised.
 
