@@ -57,3 +57,21 @@ def test_read_only_package_compiles_into_the_user_cache(tmp_path: Path) -> None:
     cached = list((xdg / "stiction" / "numba").rglob("*.nbi"))
     assert cached, "numba wrote no index into the user cache"
     assert not list(pkg.rglob("*.nbi")), "numba wrote beside the read-only package"
+
+
+def test_is_cached_tells_a_load_from_a_first_compilation(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Pipeline.warm_up waits for a load but not for a compilation: is_cached decides."""
+    monkeypatch.setenv("NUMBA_CACHE_DIR", str(tmp_path / "cache"))
+    mod = tmp_path / "cached_fn.py"
+    mod.write_text("def double(x):\n    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    import cached_fn  # type: ignore[import-not-found]
+
+    first = numba_cache.njit_cached(cached_fn.double)
+    assert numba_cache.is_cached(first) is False
+    assert first(21) == 42  # compiles, and writes the cache
+    again = numba_cache.njit_cached(cached_fn.double)
+    assert numba_cache.is_cached(again) is True
+    assert numba_cache.is_cached(cached_fn.double) is None  # not a dispatcher

@@ -539,8 +539,8 @@ def first_frame(tmp: str, cache: str) -> float:
 
     numba's cache is the folder `cache` (NUMBA_CACHE_DIR): empty for the cold
     figure (the scene tick compiles on a thread while the first ticks run it
-    as plain Python; the daemon waits at most 2 s for it), filled for the
-    warm one (the compiled tick loads before the clock starts)."""
+    as plain Python; the daemon does not wait for a compilation), filled for
+    the warm one (the compiled tick loads before the clock starts)."""
     import zmq
 
     pub, ctl = f"ipc://{tmp}/ff-pub", f"ipc://{tmp}/ff-ctl"

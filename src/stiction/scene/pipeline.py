@@ -359,6 +359,29 @@ class _Slots:
         """Live contact ids, ascending, and their slots: the output order."""
         self.order_slots = np.zeros(0, dtype=np.int64)
         self.pos_of = np.full(64, -1, dtype=np.int64)
+        self.iw = np.zeros((3, 0), dtype=np.int64)
+        self.fw = np.zeros((4, 0))
+        self.bw = np.zeros((2, 0), dtype=np.bool_)
+        """The compiled tick's scratch space (it allocates nothing itself)."""
+        self.aff_key: tuple[float, ...] = ()
+        self.aff = np.zeros(6)
+
+    def affine(self, coefficients: tuple[float, ...]) -> npt.NDArray[np.float64]:
+        """The mapping's affine coefficients as the array the tick takes (made once per change)."""
+        if coefficients != self.aff_key:
+            self.aff_key = coefficients
+            self.aff = np.array(coefficients, dtype=np.float64)
+        return self.aff
+
+    def scratch(self, samples: int, contacts: int) -> tuple[Any, Any, Any]:
+        """Scratch rows long enough for a tick of `samples` samples over `contacts` contacts."""
+        need = tick.scratch_size(samples, contacts)
+        if self.iw.shape[1] < need:
+            size = max(need, 2 * self.iw.shape[1], 64)
+            self.iw = np.zeros((3, size), dtype=np.int64)
+            self.fw = np.zeros((4, size))
+            self.bw = np.zeros((2, size), dtype=np.bool_)
+        return self.iw, self.fw, self.bw
 
     def grow(self) -> None:
         old = self.L.shape[0]
@@ -605,18 +628,20 @@ class Pipeline:
     ) -> ContactArrays:
         """Advance every contact of one device to `t`; the result as arrays."""
         slots = self._slots(dev)
-        _, table, compiled = self._ready()
-        if compiled.ready.is_set():
+        table, compiled = self._table, self._tick  # set by _slots' _ready()
+        ready = compiled.ready.is_set()
+        if ready:
             fn = compiled.fn
         elif compiled.background:
             fn = tick.tick  # still compiling on the warm-up thread
         else:
             fn = compiled.fn  # compiles now, at this first call
         mapping: Any = dev.mapping
-        aff = np.array(mapping.affine())
+        aff = slots.affine(mapping.affine())
         n = -1
         out = np.empty((max(len(dev.tracks), 1), tick.OCOLS))
         for _ in range(2):
+            iw, fw, bw = slots.scratch(s.contact.shape[0], slots.order_ids.shape[0])
             n = fn(
                 slots.S,
                 slots.L,
@@ -640,6 +665,9 @@ class Pipeline:
                 t,
                 prev_t,
                 out,
+                iw,
+                fw,
+                bw,
             )
             if n >= 0:
                 break
@@ -647,13 +675,13 @@ class Pipeline:
                 raise RuntimeError(f"scene tick refused its arguments ({n})")
             self._add_contacts(dev, slots, s)
             out = np.empty((len(dev.tracks), tick.OCOLS))
-        if fn is compiled.fn:
+        if not ready and fn is compiled.fn:
             compiled.ready.set()
         values = out[:n]
         ids = slots.order_ids
         result = ContactArrays(ids, values, self.names, self.string, self.pressure)
-        ended = values[:, tick.OPHASE] == tick.UP_C
-        if ended.any():
+        if slots.iw[2, n]:  # the tick counted contacts that ended
+            ended = values[:, tick.OPHASE] == tick.UP_C
             known = dev.tracks
             for cid in ids[ended].tolist():
                 i = known.pop(cid)
@@ -663,19 +691,25 @@ class Pipeline:
             slots.reorder(known)
         return result
 
-    def warm_up(self, wait: float = WARM_UP_WAIT_S) -> bool:
+    def warm_up(self, wait: float | None = None) -> bool:
         """Compile (or load from numba's cache) the batch tick before the first tick.
 
         The daemon calls this before it starts its clock. Compiling runs on a
-        background thread; this waits up to `wait` seconds for it (loading
-        from the cache takes well under that). If it is not done by then,
-        ticks run the tick as plain Python until it is, so the first frame
-        is not held up by a first compilation. Returns whether the compiled
-        tick is ready.
+        background thread; this waits up to `wait` seconds for it. By
+        default that is WARM_UP_WAIT_S when numba's cache holds the tick
+        (loading it takes well under that), and no wait at all when it does
+        not: compiling takes seconds to a minute, and waiting 2 s of it
+        would only hold up the first frame. Until the thread is done, ticks
+        run the tick as plain Python, so a first compilation never holds up
+        the first frame. Returns whether the compiled tick is ready.
         """
-        _, _, compiled = self._ready()
+        stepper, _, compiled = self._ready()
         if compiled.ready.is_set():
             return True
+        if wait is None:
+            cached = getattr(stepper, "is_cached", None)
+            known = cached(compiled.fn) if cached is not None else None
+            wait = 0.0 if known is False else WARM_UP_WAIT_S
         if not compiled.background:
             compiled.background = True
             threading.Thread(
@@ -716,6 +750,7 @@ class Pipeline:
             0.0,
             -math.inf,
             np.empty((n, tick.OCOLS)),
+            *slots.scratch(n, n),
         )
         compiled.ready.set()
 

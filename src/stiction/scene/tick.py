@@ -68,6 +68,11 @@ def material_at(gi: Any, gf: Any, pts: Any, cfg: Any, px: float, py: float) -> i
     return int(cfg[COUTSIDE])
 
 
+def scratch_size(samples: int, contacts: int) -> int:
+    """How long each row of `tick`'s scratch arrays must be."""
+    return max(samples, contacts + 1)
+
+
 def _gain(pl: Any, p: float) -> float:
     """PressureLoad.gain; NaN (no pressure) and non-finite values give 1.0."""
     if not math.isfinite(p):
@@ -99,21 +104,34 @@ def tick(
     t: float,
     prev_t: float,
     out: Any,
+    iw: Any,
+    fw: Any,
+    bw: Any,
 ) -> int:
     """Advance every live contact (order_ids, ascending) to t; fill out[j] for contact j.
 
     pos_of[id] is the position of contact `id` in order_ids (-1: none) for the
     ids below pos_of's length; larger (or negative) ids are searched for.
+    iw (3 rows of int64), fw (4 rows of float64) and bw (2 rows of bool),
+    each at least scratch_size(samples, contacts) long, are the caller's
+    scratch space: the loop allocates nothing, so it is compiled without
+    numba's reference counting (see Pipeline), which cost it more than its
+    arithmetic. On return iw[2, n] holds how many contacts ended (phase
+    up) at this tick, so that the caller looks for them only when some did.
 
     Returns the number of contacts, or -1 (having changed nothing) when a
     sample names a contact that has no slot yet: the caller adds it and
-    calls again; -2 when `out` has fewer rows than there are contacts.
+    calls again; -2 when `out` has fewer rows than there are contacts, -3
+    when the scratch space is too short.
     """
     n = order_ids.shape[0]
     if out.shape[0] < n:
         return -2  # no room for every contact's output: refuse rather than write past it
     m = c.shape[0]
-    sj = np.empty(m, dtype=np.int64)
+    need = scratch_size(m, n)
+    if iw.shape[1] < need or fw.shape[1] < need or bw.shape[1] < need:
+        return -3
+    sj = iw[0]
     dense = pos_of.shape[0]
     for k in range(m):
         ck = c[k]
@@ -127,18 +145,22 @@ def tick(
                 return -1
         sj[k] = j
     # Each contact's samples together, in time order (a counting sort).
-    fill = np.zeros(n + 1, dtype=np.int64)
+    fill = iw[1]
+    for j in range(n + 1):
+        fill[j] = 0
     for k in range(m):
         fill[sj[k] + 1] += 1
     for j in range(n):
         fill[j + 1] += fill[j]
-    firsts = fill[:n].copy()
-    gt = np.empty(m)
-    gx = np.empty(m)
-    gy = np.empty(m)
-    gp = np.empty(m)
-    gtip = np.empty(m, dtype=np.bool_)
-    grange = np.empty(m, dtype=np.bool_)
+    firsts = iw[2]
+    for j in range(n):
+        firsts[j] = fill[j]
+    gt = fw[0]
+    gx = fw[1]
+    gy = fw[2]
+    gp = fw[3]
+    gtip = bw[0]
+    grange = bw[1]
     for k in range(m):
         j = sj[k]
         q = fill[j]
@@ -154,6 +176,7 @@ def tick(
     string = cfg[CSTRING] != 0
     pressure = cfg[CPRESSURE] != 0
     nmat = cfg[CNMAT]
+    ended = 0
     for j in range(n):
         i = order_slots[j]
         lr = L[i]
@@ -256,6 +279,8 @@ def tick(
             lr[LHASSIM] = 1.0 if sim_after else 0.0
             lr[LMAT] = mat if fric else (old if sim_after else -1)
         lr[LPHASE] = phase
+        if phase == UP_C:
+            ended += 1
         o = out[j]
         o[OPHASE] = phase
         o[OTX] = tx
@@ -273,8 +298,9 @@ def tick(
         o[OSDY] = sdy
         o[OPRESS] = lr[LPRESS]
         o[OLOAD] = load
+    firsts[n] = ended
     return int(n)
 
 
-CALLEES = (_contains, material_at, _gain)
+CALLEES = (_contains, material_at, scratch_size, _gain)
 """What `tick` calls besides step.py: registered with numba before it compiles `tick`."""

@@ -80,3 +80,18 @@ def njit_cached(fn: Callable[..., Any], **options: Any) -> Any:
         return numba.njit(cache=True, **options)(fn)
     finally:
         config.CACHE_DIR = saved
+
+
+def is_cached(dispatcher: Any) -> bool | None:
+    """Whether numba's cache holds an index for this compiled function (None: cannot tell).
+
+    Lets a caller tell a load (a fraction of a second) from a first
+    compilation (seconds to a minute) before it starts either. Reads numba's
+    own record of where the index lives (private, hence the None when a
+    numba version has it elsewhere).
+    """
+    cache = getattr(dispatcher, "_cache", None)
+    index = getattr(getattr(cache, "_cache_file", None), "_index_path", None)
+    if not isinstance(index, str):
+        return None
+    return os.path.exists(index)

@@ -60,3 +60,9 @@ class RowStepper:
         if hasattr(kernel, "compile_with_step"):
             return kernel.compile_with_step(fn, callees)
         return fn
+
+    def is_cached(self, compiled: Any) -> bool | None:
+        """Whether numba's cache holds `compiled` (what `compile` returned); None: unknown."""
+        from stiction.sim.numba_cache import is_cached
+
+        return is_cached(compiled)

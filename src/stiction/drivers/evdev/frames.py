@@ -189,6 +189,8 @@ class FrameAssembler:
         self._dirty_all = True  # keys changed / single-touch state changed / resync
         self._button_state = 0
         self._keys_changed = False
+        self._key_tool: Tool | None = None  # the tool the key set names (_current_single)
+        self._key_touch = False  # BTN_TOUCH is down
         self._default_tool = Tool.PEN if desc.kind == "pen" else Tool.FINGER
         self._slot_start = (self._slot, self._slot_ok)
         self._seen_start = False
@@ -314,7 +316,14 @@ class FrameAssembler:
                         self._dirty_all = True  # tool, tip and buttons follow the keys
                     out.append(self._commit(sec, usec))
                     n = 0
-                    self._end_frame()
+                    # self._end_frame(), inline: this runs at every frame
+                    if undo_abs:
+                        undo_abs.clear()
+                    if undo_slots:
+                        undo_slots.clear()
+                    self._keys_ok = None
+                    self._slot_start = (self._slot, self._slot_ok)
+                    self._seen_start = self._seen_position
                 elif code == SYN_DROPPED:
                     stats["syn_dropped"] += 1
                     stats["events_discarded"] += n
@@ -329,7 +338,7 @@ class FrameAssembler:
         return out
 
     def _end_frame(self) -> None:
-        """The frame is committed: forget how to undo it."""
+        """The frame is committed: forget how to undo it (feed_many has its own copy)."""
         if self._undo_abs:
             self._undo_abs.clear()
         if self._undo_slots:
@@ -497,17 +506,22 @@ class FrameAssembler:
         return out
 
     def _current_single(self) -> Contact | None:
-        keys = self._keys
         if self._keys_changed:
+            # What follows from the keys alone, worked out when they change
+            # rather than at every frame (most frames only move the pen).
+            keys = self._keys
             self._button_state = self._buttons()
             self._keys_changed = False
-        tool: Tool | None = None
-        if self._has_tool_keys:
+            self._key_tool = None
             if keys:
                 for code, t in _TOOL_ORDER:
                     if code in keys:
-                        tool = t
+                        self._key_tool = t
                         break
+            self._key_touch = BTN_TOUCH in keys
+        tool: Tool | None = None
+        if self._has_tool_keys:
+            tool = self._key_tool
         elif self._seen_position:
             tool = self._default_tool  # no BTN_TOOL_*: in range once it reports a position
         if tool is None:
@@ -515,7 +529,7 @@ class FrameAssembler:
         a = self._abs
         pressure = a.get(ABS_PRESSURE) if self._has_pressure else None
         if self._has_touch_key:
-            tip = BTN_TOUCH in keys
+            tip = self._key_touch
         else:
             tip = pressure is not None and pressure > self._pressure_min
         tilt_x, tilt_y = (a[ABS_TILT_X], a[ABS_TILT_Y]) if self._has_tilt else (None, None)

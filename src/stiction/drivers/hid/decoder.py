@@ -76,18 +76,21 @@ FLAT_PARTS = 64
 """Above this many runs the generated decoder builds its tuple in one flat display."""
 
 
-def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
-    """Generate ``decode(data) -> tuple`` for this layout.
+def _plan(
+    elements: list[Element], namespace: dict[str, object]
+) -> tuple[list[tuple[str, int, str | None]], bool]:
+    """Cut the elements, in order, into runs that one cheap C-level step decodes.
 
-    The elements are cut, in order, into runs that one cheap C-level step
-    decodes: bit flags sharing a byte become one lookup in a 256-entry table
-    of tuples, byte-aligned 8/16/32/64-bit values in a row become one
+    Bit flags sharing a byte become one lookup in a 256-entry table of
+    tuples, byte-aligned 8/16/32/64-bit values in a row become one
     `struct.unpack_from`, and anything else is a shift and mask of the
-    report read once as an integer. The generated source holds only numbers
-    computed here, never input bytes.
+    report read once as the integer ``v``. Returns one expression per run
+    (each a tuple of that run's values, reading the report ``d``; tables and
+    unpackers go into `namespace`), with how many values it yields and, for a
+    run of one value, its expression without the tuple; and whether ``v`` is
+    needed. The expressions hold only numbers computed here, never input bytes.
     """
-    namespace: dict[str, object] = {}
-    parts: list[str] = []
+    parts: list[tuple[str, int, str | None]] = []
     need_int = False
     i = 0
     n = len(elements)
@@ -95,7 +98,7 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
         e = elements[i]
         start, shift = divmod(e.bit_offset, 8)
         if e.bit_size == 0:
-            parts.append("(0,)")  # a zero-bit field (Report Size 0) reads as 0
+            parts.append(("(0,)", 1, "0"))  # a zero-bit field (Report Size 0) reads as 0
             i += 1
             continue
         if shift + e.bit_size <= 8 and e.bit_size < 8:
@@ -108,7 +111,7 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
                 j += 1
             name = f"T{len(namespace)}"
             namespace[name] = _byte_table(elements[i:j])
-            parts.append(f"{name}[d[{start}]]")
+            parts.append((f"{name}[d[{start}]]", j - i, None))
             i = j
             continue
         if shift == 0 and (e.bit_size, e.signed) in _STRUCT_CODES:
@@ -126,7 +129,7 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
                 j += 1
             name = f"S{len(namespace)}"
             namespace[name] = struct.Struct(fmt).unpack_from
-            parts.append(f"{name}(d, {start})")
+            parts.append((f"{name}(d, {start})", j - i, None))
             i = j
             continue
         need_int = True
@@ -137,8 +140,37 @@ def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
         if e.signed:
             sign = 1 << (e.bit_size - 1)
             expr = f"(({expr} ^ {sign:#x}) - {sign:#x})"
-        parts.append(f"({expr},)")
+        parts.append((f"({expr},)", 1, expr))
         i += 1
+    return parts, need_int
+
+
+def decode_statements(
+    elements: list[Element], names: list[str], namespace: dict[str, object]
+) -> list[str]:
+    """Statements (unindented) that set variable names[i] to elements[i]'s value from ``d``.
+
+    What `_compile_one`'s function computes, written into a caller's
+    generated function (report_code.py) so that no tuple of all values is
+    built and unpacked there.
+    """
+    parts, need_int = _plan(elements, namespace)
+    lines = ["v = int.from_bytes(d, 'little')"] if need_int else []
+    k = 0
+    for expr, count, scalar in parts:
+        if scalar is not None:
+            lines.append(f"{names[k]} = {scalar}")
+        else:
+            lines.append(f"({', '.join(names[k : k + count])},) = {expr}")
+        k += count
+    return lines
+
+
+def _compile_one(elements: list[Element]) -> Callable[[bytes], tuple[int, ...]]:
+    """Generate ``decode(data) -> tuple`` for this layout (the runs of `_plan`, joined)."""
+    namespace: dict[str, object] = {}
+    runs, need_int = _plan(elements, namespace)
+    parts = [expr for expr, _, _ in runs]
     lines = ["def decode(d):"]
     if need_int:
         lines.append("    v = int.from_bytes(d, 'little')")

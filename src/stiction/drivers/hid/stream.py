@@ -13,6 +13,7 @@ from collections.abc import Callable
 from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
 from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
+from stiction.drivers.hid.report_code import ReportFn, compile_feed, compile_report
 from stiction.drivers.sample import PenSample
 from stiction.errors import DeviceError
 
@@ -50,7 +51,8 @@ class ReportStream:
         `fixup` rewrites each raw report before decoding (vendor formats the
         descriptor cannot express); returning None drops the report as ignored.
         `proximity_timeout`: for tablets that report no in-range state, the
-        pen counts as gone this many seconds after its last report (see `idle`).
+        pen counts as gone this many seconds after its last report (see `idle`);
+        fixed here (the generated feed keeps report times only when it is set).
         """
         if fixup is None and entry is not None and entry.descriptor is not None:
             # The device table's descriptor replaces the device's own on every
@@ -100,8 +102,38 @@ class ReportStream:
         self.numbered = desc.numbered
         self.known_ids = set(desc.input_reports)
         self.kind = device_kind(desc, pen_reports)
-        self.stats: Counter[str] = Counter()
-        self.tracker = ContactTracker(self.stats)
+        self._counts: Counter[str] = Counter()
+        self._fed = 0
+        self._made = 0
+        self._sampled = False
+        """`reports` and `samples` as plain ints on the hot path (see `stats`)."""
+        self.tracker = ContactTracker(self._counts)
+        self._compiled: dict[int, tuple[ReportFn, int]] = {}
+        """Report ID -> its generated path (report_code.py) and the bytes it needs."""
+        active, last = self.tracker.active, self.tracker.last
+        for rid, m in self.mappings.items():
+            fn = compile_report(m, active, last, self._counts)
+            if fn is not None:
+                self._compiled[rid] = (fn, m.decoder.byte_size)
+        self.feed: ReportFn = compile_feed(
+            self,
+            self.mappings,
+            self.numbered,
+            self.fixup,
+            active,
+            last,
+            self._counts,
+            frozenset(self.known_ids - set(self.mappings)),
+            timed=proximity_timeout is not None,
+        )
+        """The samples of one report received at `t`; a bad report is counted, never raised.
+
+        One generated function per device (report_code.compile_feed): the
+        counting, the fix-up and each contact report ID's path (ContactTracker's
+        work with the layout's answers written in) in one call. Everything
+        else, and finger reports with a Contact Count, goes through `_rest`
+        and ContactTracker; `_feed` is the same as a method.
+        """
         # The surface is that of the device's kind: a node with a pen and a
         # touch screen is a pen (device_kind), so its size is the pen's, even
         # where the touch report comes first in the descriptor.
@@ -111,28 +143,66 @@ class ReportStream:
         if own:
             self.surface_size = (own[0].width_m, own[0].height_m)
 
+    @property
+    def stats(self) -> Counter[str]:
+        """The counters (see the class doc).
+
+        Two counters move at every report; a Counter's `+=` is a lookup and
+        a store on a dict subclass, so feed keeps them as ints, written into
+        the Counter here. Only the feeding thread changes the ints; a reader
+        copies them, so no count is lost to a reader on another thread.
+        """
+        c = self._counts
+        if self._fed:
+            c["reports"] = self._fed
+        if self._sampled or self._made:
+            c["samples"] = self._made
+        return c
+
     def _bad(self, what: str, message: str) -> list[PenSample]:
-        self.stats[what] += 1
-        if self.stats[what] <= self.LOG_FIRST:
+        self._counts[what] += 1
+        if self._counts[what] <= self.LOG_FIRST:
             log.warning("%s: %s (skipped)", self.device, message)
         return []
 
-    def feed(self, t: float, data: bytes) -> list[PenSample]:
-        self.stats["reports"] += 1
+    def use_tracker(self) -> None:
+        """Send every report through ContactTracker, as before report_code.py.
+
+        The reference the generated paths are tested and benchmarked against
+        (tests/hid/test_hid_report_code.py, `stiction bench hid`)."""
+        self._compiled.clear()
+        self.feed = self._feed
+
+    def _feed(self, t: float, data: bytes) -> list[PenSample]:
+        """`feed` as a method: what the generated feed does, and the statement of it."""
+        self._fed += 1
         self._last_report_t = t
         if self.fixup is not None and data:
             fixed = self.fixup(data)
             if fixed is None:
-                self.stats["ignored"] += 1
+                self._counts["ignored"] += 1
                 return []
             data = fixed
+        return self._rest(t, data)
+
+    def _rest(self, t: float, data: bytes) -> list[PenSample]:
+        """A report after counting and fix-up: empty, unknown, short, or decoded."""
         if not data:
             return self._bad("empty_reports", "empty report")
         rid = data[0] if self.numbered else 0
+        compiled = self._compiled.get(rid)
+        if compiled is not None and len(data) >= compiled[1]:
+            try:
+                samples = compiled[0](t, data)
+            except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover
+                return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
+            self._made += len(samples)
+            self._sampled = True
+            return samples
         m = self.mappings.get(rid)
         if m is None:
             if rid in self.known_ids:
-                self.stats["ignored"] += 1
+                self._counts["ignored"] += 1
                 return []
             return self._bad("unknown_report_id", f"report ID {rid} is not in the descriptor")
         if len(data) < m.decoder.byte_size:
@@ -145,7 +215,8 @@ class ReportStream:
             samples = self.tracker.samples(t, m, values)
         except (ValueError, IndexError, OverflowError) as exc:  # pragma: no cover - defensive
             return self._bad("bad_values", f"report {rid} could not be decoded: {exc}")
-        self.stats["samples"] += len(samples)
+        self._made += len(samples)
+        self._sampled = True
         return samples
 
     def idle(self, t: float) -> list[PenSample]:
@@ -162,5 +233,6 @@ class ReportStream:
         ):
             return []
         samples = self.tracker.leave_all(t)
-        self.stats["samples"] += len(samples)
+        self._made += len(samples)
+        self._sampled = True
         return samples
