@@ -2,8 +2,8 @@
 the real daemon (virtual clock), answer through the session's buttons, and the data
 carry the observer's known truth.
 
-The quick checks run on their own; the recovery checks need the analysis half
-(stiction.experiment.analysis, from the expstats branch) and are skipped without it.
+The recovery checks run the analysis (stiction.experiment.analysis) on what the
+simulated participants answered.
 """
 
 from __future__ import annotations
@@ -14,6 +14,7 @@ from pathlib import Path
 
 import pytest
 
+from stiction.experiment import analysis
 from stiction.experiment.data import read_trials
 from stiction.experiment.observer import (
     ObserverParams,
@@ -102,7 +103,6 @@ def _by_string(results: list[dict], string: int) -> dict:
 
 
 def test_analysis_recovers_pse_and_jnd(study1: tuple[Study, list[Path]]) -> None:
-    analysis = pytest.importorskip("stiction.experiment.analysis")
     study, paths = study1
     results = analysis.analyze(paths)
     for string in (1, 0):
@@ -115,7 +115,6 @@ def test_analysis_recovers_pse_and_jnd(study1: tuple[Study, list[Path]]) -> None
 
 
 def test_analysis_recovers_stevens_law(study2: tuple[Study, list[Path]]) -> None:
-    analysis = pytest.importorskip("stiction.experiment.analysis")
     study, paths = study2
     k, beta, _ = true_stevens(
         OBSERVER, study.comparison_mu_s, study.standard_mu_s, study.params, study.display,

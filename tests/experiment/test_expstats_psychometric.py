@@ -73,7 +73,8 @@ def test_lapses_flatten_the_papers_model_but_not_the_guess_lapse_fit() -> None:
 
 
 def test_psignifit_agrees_on_pse_jnd_and_slope() -> None:
-    psignifit = pytest.importorskip("psignifit")
+    import psignifit  # the test extra: an independent implementation
+
     k, n = _draw(0.4, 0.15, 200, seed=8)
     ours = ps.fit_logistic(LEVELS, k, n)
     with warnings.catch_warnings():
