@@ -136,7 +136,10 @@ def test_bench_smoke(name: str, tmp_path: Path, request: pytest.FixtureRequest) 
             env=env,
             capture_output=True,
             text=True,
-            timeout=120,
+            # A guard against a hang, not a speed check: the daemon benchmark
+            # compiles numba's tick twice into fresh caches, which a loaded
+            # 2-CPU machine has been seen to stretch past two minutes.
+            timeout=600,
         )
     assert run.returncode == 0, run.stderr[-3000:]
     assert _hashes(COMMITTED) == before, "a benchmark wrote to bench/results/"
@@ -258,7 +261,7 @@ def test_the_wheel_ships_the_benchmarks(tmp_path: Path) -> None:
         env=env,
         capture_output=True,
         text=True,
-        timeout=120,
+        timeout=600,  # the installed copy compiles its kernels into a fresh cache
     )
     assert run.returncode == 0, run.stderr[-3000:]
     out = tmp_path / "cache" / "stiction" / "bench"
