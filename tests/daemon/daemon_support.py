@@ -10,7 +10,8 @@ import msgpack
 import zmq
 
 from stiction.daemon.devices import DeviceConfig, Spec
-from stiction.daemon.service import Daemon, Options
+from stiction.daemon.options import Options
+from stiction.daemon.service import Daemon
 from stiction.drivers.sample import PenSample
 from stiction.errors import DeviceError
 

@@ -19,7 +19,8 @@ from hypothesis import strategies as st
 from stiction import protocol
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.hotplug import Hotplug
-from stiction.daemon.service import Daemon, Options
+from stiction.daemon.options import Options
+from stiction.daemon.service import Daemon
 from stiction.drivers.sample import PenSample
 from stiction.sim import ContactSim, Params
 

@@ -17,8 +17,8 @@ from typing import Any, NoReturn
 from stiction.argtypes import check_endpoint
 from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, spec_problem
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
+from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
-from stiction.daemon.service import Options
 from stiction.errors import StictionError
 from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
 from stiction.userfiles import read_regular_text
@@ -44,6 +44,8 @@ _DAEMON_KEYS = {
     "spin_ms",
     "realtime",
 }
+_FLOATS = {"rate", "late_threshold_ms", "keepalive", "spin_ms"}
+"""Number options a TOML integer may give: stored as float, as the flags store them."""
 _SIM_KEYS = {"integrator", "substeps", "k", "m", "g", "mu_s", "mu_k", "C_l"}
 _CURVE_KEYS = {"secret_key", "authorized_keys", "required"}
 _DEVICE_KEYS = {
@@ -119,12 +121,15 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     opts.config_path = path
 
     d = r.table(data.get("daemon", {}), ("daemon",), _DAEMON_KEYS)
-    if "rate" in d:
-        opts.rate = r.number(d["rate"], ("daemon", "rate"))
-    if "clock" in d:
-        if d["clock"] not in ("real", "virtual"):
-            r.fail(("daemon", "clock"), f"must be 'real' or 'virtual', got {d['clock']!r}")
-        opts.clock = d["clock"]
+    for key in ("rate", "late_threshold_ms", "keepalive", "spin_ms"):
+        if key in d:
+            r.number(d[key], ("daemon", key), positive=False)
+    for key in ("rate", "clock", "hwm", "late_threshold_ms", "keepalive", "spin_ms", "realtime"):
+        if key in d:
+            wrong = problem(key, d[key])
+            if wrong is not None:
+                r.fail(("daemon", key), wrong)
+            setattr(opts, key, float(d[key]) if key in _FLOATS else d[key])
     for key in ("pub", "control"):
         if key in d:
             text = r.string(d[key], ("daemon", key))
@@ -139,28 +144,6 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         if w <= 0 or h <= 0 or w != int(w) or h != int(h):
             r.fail(("daemon", "display"), "must be [width, height] in whole pixels > 0")
         opts.display = (int(w), int(h))
-    if "hwm" in d:
-        hwm = r.number(d["hwm"], ("daemon", "hwm"))
-        if hwm != int(hwm) or hwm < 1:
-            r.fail(("daemon", "hwm"), f"must be a whole number of messages, 1 or more, got {hwm}")
-        opts.hwm = int(hwm)
-    if "late_threshold_ms" in d:
-        opts.late_threshold_ms = r.number(d["late_threshold_ms"], ("daemon", "late_threshold_ms"))
-    if "keepalive" in d:
-        keepalive = r.number(d["keepalive"], ("daemon", "keepalive"), positive=False)
-        if keepalive < 0:
-            r.fail(("daemon", "keepalive"), "must be 0 (every tick) or more seconds")
-        opts.keepalive = keepalive
-    if "spin_ms" in d:
-        spin = r.number(d["spin_ms"], ("daemon", "spin_ms"), positive=False)
-        if not 0 <= spin <= 5:
-            r.fail(("daemon", "spin_ms"), "must be from 0 to 5 (milliseconds)")
-        opts.spin_ms = spin
-    if "realtime" in d:
-        prio = d["realtime"]
-        if isinstance(prio, bool) or not isinstance(prio, int) or not 0 <= prio <= 99:
-            r.fail(("daemon", "realtime"), f"must be a priority 1-99 (0: off), got {prio!r}")
-        opts.realtime = prio
     if "hotplug" in d:
         if not isinstance(d["hotplug"], bool):
             r.fail(("daemon", "hotplug"), "must be true or false")
@@ -170,10 +153,10 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     if "integrator" in s:
         opts.integrator = r.string(s["integrator"], ("sim", "integrator"))
     if "substeps" in s:
-        n = s["substeps"]
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            r.fail(("sim", "substeps"), f"must be a whole number >= 1, got {n!r}")
-        opts.substeps = n
+        wrong = problem("substeps", s["substeps"])
+        if wrong is not None:
+            r.fail(("sim", "substeps"), wrong)
+        opts.substeps = s["substeps"]
     opts.params = {
         k: r.number(v, ("sim", k), positive=k not in ("mu_s", "mu_k"))
         for k, v in s.items()

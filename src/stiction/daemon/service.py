@@ -26,7 +26,6 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -42,6 +41,7 @@ from stiction.daemon.clock import (
     set_realtime,
     tighten_timer_slack,
 )
+from stiction.daemon.config import load_options
 from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
     ClockMap,
@@ -55,15 +55,16 @@ from stiction.daemon.devices import (
     take_virtual,
 )
 from stiction.daemon.mapping import MappingConfig, make_mapping
+from stiction.daemon.options import Options, validate
 from stiction.daemon.publisher import Publisher
-from stiction.daemon.security import CurveConfig, Guard
+from stiction.daemon.security import Guard
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
 from stiction.drivers.info import DeviceInfo
 from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
-from stiction.scene.load import DEFAULT_DISPLAY, default_scene, load_scene, parse_scene
+from stiction.scene.load import default_scene, load_scene, parse_scene
 from stiction.scene.model import Scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
@@ -75,44 +76,6 @@ Opener = Callable[[Spec, DeviceConfig, bool, bool], SampleSource]
 """open_source's signature: spec, its config, realtime, loop."""
 
 
-@dataclass
-class Options:
-    """Everything the daemon is configured with (config file and flags merged)."""
-
-    rate: float = 100.0
-    clock: str = "real"
-    pub: str = protocol.DEFAULT_PUB
-    control: str = protocol.DEFAULT_CONTROL
-    scene: Path | None = None
-    display: tuple[int, int] = DEFAULT_DISPLAY
-    devices: list[DeviceConfig] = field(default_factory=list)
-    params: dict[str, float] = field(default_factory=dict)
-    integrator: str = "default"
-    substeps: int = 1
-    hwm: int = 1000
-    late_threshold_ms: float | None = None
-    seconds: float | None = None
-    wait_subscribers: int = 0
-    """Virtual clock: hold the first tick until this many subscriptions arrived."""
-    wait_timeout: float = 30.0
-    curve: CurveConfig = field(default_factory=CurveConfig)
-    hotplug: bool = True
-    config_path: Path | None = None
-    scene_from_flag: bool = False
-    stats_window: int = 10_000
-    """Ticks kept for the jitter/latency percentiles of the stats reply."""
-    keepalive: float = 1.0
-    """While nothing happens, run one tick (a frame per device) every this
-    many seconds instead of every period; 0 never idles."""
-    spin_ms: float = 0.3
-    """Sleep to this long before each deadline, then poll the clock (RealClock)."""
-    start: float | None = None
-    """Monotonic time of deadline 0 (real clock); default 10 ms after run()
-    starts. Processes that share CLOCK_MONOTONIC can share a grid."""
-    realtime: int = 0
-    """SCHED_FIFO priority (1-99) for the loop thread; 0: ordinary scheduling."""
-
-
 class Daemon:
     def __init__(
         self,
@@ -120,25 +83,14 @@ class Daemon:
         ctx: zmq.Context[Any] | None = None,
         opener: Opener = open_source,
     ) -> None:
-        self.opts = opts
+        self.opts = validate(opts)
         self.opener = opener
         self.virtual = opts.clock == "virtual"
-        if opts.clock not in ("real", "virtual"):
-            raise StictionError(f"clock must be 'real' or 'virtual', got {opts.clock!r}")
         self.backend = SimulatorBackend(opts.integrator, opts.substeps)
         self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
         scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
         self.pipeline = Pipeline(scene, self.backend, self.defaults)
-        if not (math.isfinite(opts.keepalive) and opts.keepalive >= 0):
-            raise StictionError(f"keepalive must be 0 or more seconds, got {opts.keepalive}")
-        try:
-            self.clock: Clock = VirtualClock() if self.virtual else RealClock(opts.spin_ms / 1e3)
-        except ValueError:
-            raise StictionError(
-                f"spin_ms must be from 0 to 5 (milliseconds), got {opts.spin_ms:g}"
-            ) from None
-        if not 0 <= opts.realtime <= 99:
-            raise StictionError(f"realtime must be a priority 1-99 (0: off), got {opts.realtime}")
+        self.clock: Clock = VirtualClock() if self.virtual else RealClock(opts.spin_ms / 1e3)
         self.realtime = 0
         """The SCHED_FIFO priority the loop runs at (0: ordinary)."""
         self.waker = Waker()
@@ -639,8 +591,6 @@ class Daemon:
         Runs on the caller's thread (a reload worker, not the loop): files are
         read and the scene compiled here, and only the swap is posted to the loop.
         """
-        from stiction.daemon.config import load_options
-
         # `reloads` counts finished reloads (refused or applied), so a client
         # that sees it move also sees the outcome.
         opts = self.opts
