@@ -133,9 +133,9 @@ class ControlServer:
             scene = d.load_scene_file(Path(path))
         pipeline = d.prepare_scene(scene)
 
-        def apply() -> dict[str, Any]:
+        def apply() -> protocol.Reply:
             d.apply_pipeline(pipeline)
-            return {"scene": d.pipeline.wire()}
+            return protocol.scene_reply(d.pipeline.wire())
 
         return _Prepared(apply=apply)
 
@@ -147,7 +147,7 @@ class ControlServer:
         base = d.pipeline
         pipeline, defaults = d.prepare_params(args, material)
 
-        def apply() -> dict[str, Any]:
+        def apply() -> protocol.Reply:
             if d.pipeline is base:
                 d.apply_pipeline(pipeline, defaults)
             else:  # the scene changed meanwhile: apply the change to the new one
@@ -166,9 +166,9 @@ class ControlServer:
                 if prepared.error is not None:
                     raise ProtocolError(prepared.error)
                 assert prepared.apply is not None
-                return protocol.ok_reply(**prepared.apply())
+                return protocol.encode(prepared.apply())
             op, args = protocol.parse_request(payload)
-            return protocol.ok_reply(**self._dispatch(op, args))
+            return protocol.encode(self._dispatch(op, args))
         except StictionError as exc:
             self.errors += 1
             log.warning("control_error error=%s", exc)
@@ -178,20 +178,19 @@ class ControlServer:
             log.exception("control_failed")
             return protocol.error_reply(f"internal error: {type(exc).__name__}: {exc}")
 
-    def _dispatch(self, op: str, args: dict[str, Any]) -> dict[str, Any]:
+    def _dispatch(self, op: str, args: dict[str, Any]) -> protocol.Reply:
         d = self.daemon
         if op == "ping":
             return d.ping()
         if op == "get_scene":
-            scene = d.pipeline.scene
-            return {"scene": d.pipeline.wire(), "toml": scene.text}
+            return protocol.scene_reply(d.pipeline.wire(), d.pipeline.scene.text)
         if op == "get_params":
             _only(args, set(), op)
             return d.params_reply()
         if op == "devices":
-            return {"devices": d.devices()}
+            return protocol.devices_reply(d.devices())
         if op == "stats":
-            return {"stats": d.stats()}
+            return protocol.stats_reply(d.stats())
         if op == "snapshot":
             return d.snapshot()
         raise ProtocolError(f"op {op!r} is not served")
@@ -207,7 +206,7 @@ class _Prepared:
     __slots__ = ("apply", "error")
 
     def __init__(
-        self, apply: Callable[[], dict[str, Any]] | None = None, error: str | None = None
+        self, apply: Callable[[], protocol.Reply] | None = None, error: str | None = None
     ) -> None:
         self.apply = apply
         self.error = error

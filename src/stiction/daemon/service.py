@@ -27,7 +27,7 @@ import threading
 import time
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import zmq
 
@@ -104,7 +104,7 @@ class Daemon:
         self.last_tick = -1
         self.last_tick_t = -math.inf
         """Deadline of the last tick run (the keep-alive counts from it)."""
-        self.last_frames: dict[str, dict[str, Any]] = {}
+        self.last_frames: dict[str, protocol.FrameWire] = {}
         self.jitter = Window(opts.stats_window)
         self.latency = Window(opts.stats_window)
         self.cost = Window(opts.stats_window)
@@ -464,16 +464,8 @@ class Daemon:
                 and last is not None
                 and not last["contacts"]
             )
-            frame: dict[str, Any] = {
-                "v": protocol.SCHEMA_VERSION,
-                "kind": protocol.KIND_FRAME,
-                "tick": tick,
-                "prev_tick": slot.sent_tick,
-                "t": t,
-                "t_input": slot.last_t if math.isfinite(slot.last_t) else None,
-                "device": slot.name,
-                "contacts": contacts,
-            }
+            t_input = slot.last_t if math.isfinite(slot.last_t) else None
+            frame = protocol.frame(tick, slot.sent_tick, t, t_input, slot.name, contacts)
             pub.send(protocol.frame_topic(slot.name), frame)
             self.last_frames[slot.name] = frame
             slot.sent_tick = tick
@@ -528,7 +520,7 @@ class Daemon:
             )
             wire = pipeline.wire()
             protocol.encode(protocol.scene_message(wire, max(self.last_tick, 0)))
-            protocol.ok_reply(scene=wire, toml=scene.text)
+            protocol.encode(protocol.scene_reply(wire, scene.text))
         except StictionError:
             if count:
                 self.counters["scene_errors"] += 1
@@ -679,11 +671,11 @@ class Daemon:
         return base if n == 0 else f"{base}#{n + 1}"
 
     # ------------------------------------------------------------ replies
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> protocol.StatsWire:
         pub = self.publisher
-        devices: dict[str, Any] = {}
+        devices: dict[str, protocol.DeviceStatsWire] = {}
         for slot in self.slots:
-            devices[slot.name] = {
+            device: protocol.DeviceStatsWire = {
                 "state": _reported_state(slot),
                 "spec": slot.config.spec,
                 "samples": slot.samples,
@@ -695,7 +687,8 @@ class Daemon:
             }
             # protocol.md: a statistic not measured yet is absent, not 0.0.
             if slot.meter.rate is not None:
-                devices[slot.name]["rate_hz"] = round(slot.meter.rate, 2)
+                device["rate_hz"] = round(slot.meter.rate, 2)
+            devices[slot.name] = device
         control = self.control
         return {
             "uptime_s": round(time.monotonic() - self._started, 3),
@@ -708,55 +701,43 @@ class Daemon:
             "idle_wakes": self.waker.wakes,
             "realtime": self.realtime,
             "late_threshold_ms": self.schedule.late_threshold * 1e3,
-            "jitter_ms": self.jitter.summary(1e3),
-            "latency_ms": self.latency.summary(1e3),
-            "tick_cost_ms": self.cost.summary(1e3),
+            "jitter_ms": _summary(self.jitter),
+            "latency_ms": _summary(self.latency),
+            "tick_cost_ms": _summary(self.cost),
             "published": pub.sent if pub else 0,
             "publish_dropped": pub.dropped if pub else 0,
             "control_requests": control.requests if control else 0,
             "control_errors": control.errors if control else 0,
-            **self.counters,
+            "scene_loads": self.counters["scene_loads"],
+            "scene_errors": self.counters["scene_errors"],
+            "reloads": self.counters["reloads"],
             "devices": devices,
         }
 
-    def devices(self) -> list[dict[str, Any]]:
-        out = []
-        for slot in self.slots:
-            out.append(
-                {
-                    "name": slot.name,
-                    "spec": slot.config.spec,
-                    "kind": slot.kind,
-                    "state": _reported_state(slot),
-                    "surface_m": list(slot.surface_size) if slot.surface_size else None,
-                    "mapping": self._mapping_config(slot).mode,
-                }
-            )
-        return out
+    def devices(self) -> list[protocol.DeviceWire]:
+        return [
+            {
+                "name": slot.name,
+                "spec": slot.config.spec,
+                "kind": slot.kind,
+                "state": _reported_state(slot),
+                "surface_m": list(slot.surface_size) if slot.surface_size else None,
+                "mapping": self._mapping_config(slot).mode,
+            }
+            for slot in self.slots
+        ]
 
-    def params_reply(self) -> dict[str, Any]:
-        wire = self.pipeline.wire()
-        return {
-            "params": {k: v for k, v in self.defaults.items()},
-            "integrator": self.backend.integrator,
-            "materials": wire["materials"],
-        }
+    def params_reply(self) -> protocol.ParamsReply:
+        materials = self.pipeline.wire()["materials"]
+        return protocol.params_reply(self.defaults, self.backend.integrator, materials)
 
-    def ping(self) -> dict[str, Any]:
-        return {
-            "tick": self.last_tick,
-            "version": __version__,
-            "rate": self.opts.rate,
-            "keepalive": self.opts.keepalive,
-        }
+    def ping(self) -> protocol.PingReply:
+        return protocol.ping_reply(self.last_tick, __version__, self.opts.rate, self.opts.keepalive)
 
-    def snapshot(self) -> dict[str, Any]:
-        return {
-            "tick": self.last_tick,
-            "scene": self.pipeline.wire(),
-            "frames": dict(self.last_frames),
-            "keepalive": self.opts.keepalive,
-        }
+    def snapshot(self) -> protocol.SnapshotReply:
+        return protocol.snapshot_reply(
+            self.last_tick, self.pipeline.wire(), self.last_frames, self.opts.keepalive
+        )
 
 
 def _discover_nodes() -> list[DeviceInfo]:
@@ -795,6 +776,13 @@ def _ms(value: float | None) -> float | None:
     return None if value is None else value / 1e3
 
 
-def _reported_state(slot: DeviceSlot) -> str:
+def _reported_state(slot: DeviceSlot) -> protocol.DeviceState:
     """`waiting` for a device never opened yet (a typo is refused at start), else the state."""
-    return "waiting" if slot.state == "absent" and not slot.opened else slot.state
+    if slot.state == "absent" and not slot.opened:
+        return "waiting"
+    return cast(protocol.DeviceState, slot.state)
+
+
+def _summary(window: Window) -> protocol.Summary:
+    """A window's p50/p99/max in milliseconds, as the stats reply carries them."""
+    return cast(protocol.Summary, window.summary(1e3))
