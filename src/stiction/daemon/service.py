@@ -55,6 +55,7 @@ from stiction.daemon.devices import (
     take_virtual,
 )
 from stiction.daemon.mapping import MappingConfig, make_mapping
+from stiction.daemon.ops import OpTable
 from stiction.daemon.options import Options, validate
 from stiction.daemon.publisher import Publisher
 from stiction.daemon.security import Guard
@@ -109,6 +110,8 @@ class Daemon:
         self.latency = Window(opts.stats_window)
         self.cost = Window(opts.stats_window)
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
+        self.generation = 0
+        """Counts pipeline swaps (a change prepared against an older pipeline is redone)."""
         self._stop = threading.Event()
         self._reload = threading.Event()
         self._reload_worker: threading.Thread | None = None
@@ -134,7 +137,7 @@ class Daemon:
     def _open(self) -> None:
         self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
         self.control = ControlServer(
-            self.ctx, self.opts.control, self.guard, self, on_request=self.waker.wake
+            self.ctx, self.opts.control, self.guard, OpTable(self), on_request=self.waker.wake
         )
         configs = self.opts.devices or _auto_devices()
         for cfg in configs:
@@ -535,6 +538,7 @@ class Daemon:
         if defaults is not None:
             self.defaults = defaults
         self.counters["scene_loads"] += 1
+        self.generation += 1
         if scene.display != old_display:
             for slot in self.slots:
                 if slot.run is not None:
@@ -575,6 +579,9 @@ class Daemon:
     def set_params(self, values: dict[str, Any], material: str | None) -> None:
         """Change material parameters; refused as a whole if any value is invalid."""
         self.apply_pipeline(*self.prepare_params(values, material))
+        self.log_params(values, material)
+
+    def log_params(self, values: dict[str, Any], material: str | None) -> None:
         log.info("params_set material=%s values=%s", material, values)
 
     def reload(self) -> None:
@@ -726,6 +733,12 @@ class Daemon:
             }
             for slot in self.slots
         ]
+
+    def scene_wire(self) -> protocol.SceneWire:
+        return self.pipeline.wire()
+
+    def scene_text(self) -> str:
+        return self.pipeline.scene.text
 
     def params_reply(self) -> protocol.ParamsReply:
         materials = self.pipeline.wire()["materials"]
