@@ -57,7 +57,7 @@ from stiction.daemon.devices import (
 from stiction.daemon.mapping import MappingConfig, make_mapping
 from stiction.daemon.ops import OpTable
 from stiction.daemon.options import Options, validate
-from stiction.daemon.publisher import Publisher
+from stiction.daemon.publisher import Publisher, Sink
 from stiction.daemon.security import Guard
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
@@ -83,7 +83,10 @@ class Daemon:
         opts: Options,
         ctx: zmq.Context[Any] | None = None,
         opener: Opener = open_source,
+        publisher: Sink | None = None,
     ) -> None:
+        """`publisher`: where frames and scene messages go; default, a ZeroMQ
+        PUB bound to opts.pub when the daemon opens."""
         self.opts = validate(opts)
         self.opener = opener
         self.virtual = opts.clock == "virtual"
@@ -98,7 +101,8 @@ class Daemon:
         self._own_ctx = ctx is None
         self.ctx: zmq.Context[Any] = ctx if ctx is not None else zmq.Context()
         self.guard = Guard(self.ctx, opts.curve)
-        self.publisher: Publisher | None = None
+        self._given_publisher = publisher
+        self.publisher: Sink | None = None
         self.control: ControlServer | None = None
         self.slots: list[DeviceSlot] = []
         self.schedule = Schedule(opts.rate, 0.0, _ms(opts.late_threshold_ms))
@@ -135,7 +139,9 @@ class Daemon:
             raise
 
     def _open(self) -> None:
-        self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
+        self.publisher = self._given_publisher or Publisher(
+            self.ctx, self.opts.pub, self.guard, self.opts.hwm
+        )
         self.control = ControlServer(
             self.ctx, self.opts.control, self.guard, OpTable(self), on_request=self.waker.wake
         )
