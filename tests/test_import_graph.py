@@ -36,7 +36,7 @@ SRC = ROOT / "src"
 
 LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "lazy"}),
-    frozenset({"userfiles", "argtypes", "protocol", "keyfiles", "__init__"}),
+    frozenset({"userfiles", "argtypes", "protocol", "keyfiles", "tomlcheck", "__init__"}),
     frozenset({"sim", "drivers"}),
     frozenset({"scene"}),
     frozenset({"daemon", "clients"}),

@@ -9,10 +9,8 @@ from __future__ import annotations
 
 import logging
 import math
-import tomllib
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from stiction.argtypes import check_endpoint
 from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, spec_problem
@@ -20,7 +18,7 @@ from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
 from stiction.errors import StictionError
-from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
+from stiction.tomlcheck import FieldPath, TomlReader
 from stiction.userfiles import read_regular_text
 
 log = logging.getLogger(__name__)
@@ -64,23 +62,12 @@ _DEVICE_KEYS = {
 }
 
 
-class _Reader:
+class _Reader(TomlReader):
+    """The shared TOML checker plus the config's number and path rules."""
+
     def __init__(self, path: Path, text: str) -> None:
+        super().__init__(path, text, ConfigError)
         self.file = path
-        self.lines = field_lines(text)
-
-    def fail(self, where: FieldPath, message: str) -> NoReturn:
-        line = line_of(self.lines, where)
-        loc = f"{self.file}:{line}" if line else str(self.file)
-        raise ConfigError(f"{loc}: {format_path(where)}: {message}")
-
-    def table(self, data: Any, where: FieldPath, keys: set[str]) -> Mapping[str, Any]:
-        if not isinstance(data, dict):
-            self.fail(where, "must be a table")
-        for key in data:
-            if key not in keys:
-                self.fail((*where, key), f"unknown key; expected one of {', '.join(sorted(keys))}")
-        return data
 
     def number(self, value: Any, where: FieldPath, positive: bool = True) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -88,11 +75,6 @@ class _Reader:
         if not math.isfinite(value) or (positive and value <= 0):
             self.fail(where, f"must be a positive finite number, got {value!r}")
         return float(value)
-
-    def string(self, value: Any, where: FieldPath) -> str:
-        if not isinstance(value, str) or not value:
-            self.fail(where, f"must be a non-empty string, got {value!r}")
-        return value
 
     def numbers(self, value: Any, where: FieldPath, n: int) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != n:
@@ -109,13 +91,8 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     # A regular file of at most 1 MiB: SIGHUP re-reads it on a reload worker,
     # and a FIFO or /dev/zero named as the config must not block or fill it.
     text = read_regular_text(path, 1 << 20, ConfigError, "config")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise ConfigError(f"{path}: arrays or tables nested too deeply") from None
     r = _Reader(path, text)
+    data = r.data
     r.table(data, (), {"daemon", "sim", "curve", "devices"})
     opts = base if base is not None else Options()
     opts.config_path = path
@@ -145,9 +122,7 @@ def load_options(path: Path, base: Options | None = None) -> Options:
             r.fail(("daemon", "display"), "must be [width, height] in whole pixels > 0")
         opts.display = (int(w), int(h))
     if "hotplug" in d:
-        if not isinstance(d["hotplug"], bool):
-            r.fail(("daemon", "hotplug"), "must be true or false")
-        opts.hotplug = d["hotplug"]
+        opts.hotplug = r.boolean(d["hotplug"], ("daemon", "hotplug"))
 
     s = r.table(data.get("sim", {}), ("sim",), _SIM_KEYS)
     if "integrator" in s:
