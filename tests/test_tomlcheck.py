@@ -58,3 +58,15 @@ def test_scenes_and_the_config_both_use_it(tmp_path: Path) -> None:
     cfg.write_text("[daemon]\nhotplug = 1\n")
     with pytest.raises(ConfigError, match=r"c\.toml:2: daemon\.hotplug: must be true or false"):
         load_options(cfg)
+
+
+def test_the_device_catalogue_uses_it_and_names_the_entrys_line() -> None:
+    from stiction.drivers.catalogue.load import parse_toml
+    from stiction.errors import DeviceError
+
+    first = '[[device]]\nid = "1:1"\nsource = "x"\n\n'
+    text = first + '[[device]]\nid = "1:2"\nsource = "x"\nmax_x = 0\n'
+    with pytest.raises(DeviceError, match=r"^o\.toml:5: device\[1\] \(0001:0002\): 'max_x' must"):
+        parse_toml(text, "o.toml", "user")
+    with pytest.raises(DeviceError, match=r"^o\.toml: not valid TOML"):
+        parse_toml("[[device]", "o.toml", "user")

@@ -144,12 +144,16 @@ class TomlReader:
             raise error(f"{source}: arrays or tables nested too deeply") from None
         self.lines = field_lines(text)
 
-    def fail(self, path: FieldPath, message: str) -> NoReturn:
-        """Raise `message` as ``source:line: key.path: message`` (line and path when known)."""
+    def location(self, path: FieldPath) -> str:
+        """``source:line: key.path`` (line and path when known): where a message points."""
         line = line_of(self.lines, path)
         where = f"{self.source}:{line}" if line is not None else str(self.source)
         field = format_path(path)
-        raise self.error(f"{where}: {field}: {message}" if field else f"{where}: {message}")
+        return f"{where}: {field}" if field else where
+
+    def fail(self, path: FieldPath, message: str) -> NoReturn:
+        """Raise `message` as ``source:line: key.path: message``."""
+        raise self.error(f"{self.location(path)}: {message}")
 
     def table(self, value: Any, path: FieldPath, allowed: set[str]) -> Mapping[str, Any]:
         """`value` as a table whose keys are all in `allowed` (a typo is an error, not ignored)."""
