@@ -82,3 +82,42 @@ def test_error_reply_raises_with_its_text() -> None:
 
 def test_topics_filter_by_prefix() -> None:
     assert protocol.frame_topic("hid:256c:006d").startswith(protocol.TOPIC_FRAME)
+
+
+def test_frame_builder_writes_the_documented_frame_byte_for_byte() -> None:
+    hand = _frame(prev_tick=6)
+    order = ["v", "kind", "tick", "prev_tick", "t", "t_input", "device", "contacts"]
+    hand = {k: hand[k] for k in order}
+    c = hand["contacts"][0]  # type: ignore[index]
+    built = protocol.frame(
+        7,
+        6,
+        12.5,
+        12.497,
+        "synthetic:pen",
+        [protocol.contact(**c)],  # type: ignore[arg-type]
+    )
+    assert protocol.encode(built) == protocol.encode(hand)
+    no_string = {k: v for k, v in c.items() if k != "string"}
+    assert "string" not in protocol.contact(**no_string)  # type: ignore[arg-type]
+
+
+def test_every_reply_builder_starts_with_version_and_ok_and_parses() -> None:
+    scene = {"name": "s", "source": "<x>", "display": [10, 10], "effects": [],
+             "outside": "pass-through", "materials": {}, "regions": []}  # fmt: skip
+    frame = protocol.validate_frame(_frame(prev_tick=6))
+    replies = [
+        protocol.ping_reply(3, "1.0", 100.0, 1.0),
+        protocol.scene_reply(scene, "toml text"),  # type: ignore[arg-type]
+        protocol.scene_reply(scene),  # type: ignore[arg-type]
+        protocol.params_reply({"k": 1.0}, "default", {}),
+        protocol.devices_reply([]),
+        protocol.snapshot_reply(3, scene, {"pen": frame}, 1.0),  # type: ignore[arg-type]
+    ]
+    for reply in replies:
+        assert list(reply)[:2] == ["v", "ok"]
+        assert protocol.parse_reply(protocol.encode(reply)) == reply
+    assert "toml" not in replies[2]
+    with pytest.raises(ProtocolError, match=r"^boom$"):
+        protocol.parse_reply(protocol.encode(protocol.error_message("boom")))
+    assert protocol.error_reply("boom") == protocol.encode(protocol.error_message("boom"))

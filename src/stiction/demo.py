@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from stiction.daemon.spawn import daemon_command
 from stiction.errors import StictionError
 
 # asyncio, subprocess and the rest are imported where the demo runs, not when
@@ -26,18 +27,6 @@ if TYPE_CHECKING:
 
 DEMO_SCENE = Path(__file__).resolve().parent / "scene" / "examples" / "demo.toml"
 DEFAULT_PORT = 8765
-
-
-def _daemon_command() -> list[str]:
-    """The stictiond of this installation (beside this Python), not one on PATH."""
-    exe = Path(sys.executable).with_name("stictiond")
-    if exe.exists():
-        return [str(exe)]
-    return [
-        sys.executable,
-        "-c",
-        "import sys; from stiction.daemon.main import main; sys.exit(main())",
-    ]
 
 
 def _wait_ready(proc: subprocess.Popen[bytes], control: str, timeout: float) -> dict[str, Any]:
@@ -123,7 +112,7 @@ def run_demo(
     workdir = Path(tempfile.mkdtemp(prefix="stiction-demo-"))
     pub, control = f"ipc://{workdir}/pub", f"ipc://{workdir}/control"
     cmd = [
-        *_daemon_command(),
+        *daemon_command(),
         *("--device", device, "--scene", str(scene), "--clock", "real", "--no-hotplug"),
         *("--pub", pub, "--control", control),
     ]

@@ -67,6 +67,56 @@ class FrameWire(TypedDict):
     contacts: list[ContactWire]
 
 
+def contact(
+    id: int,
+    phase: Phase,
+    touch_m: list[float],
+    pointer_m: list[float],
+    touch_px: list[float],
+    pointer_px: list[float],
+    tension: float,
+    material: str,
+    string: StringWire | None = None,
+) -> ContactWire:
+    """One contact of a frame, keys in the documented order; `string` only when
+    the scene has the string effect. (The compiled pipeline writes its
+    contacts in this order itself; a test checks they match this builder.)"""
+    c: ContactWire = {
+        "id": id,
+        "phase": phase,
+        "touch_m": touch_m,
+        "pointer_m": pointer_m,
+        "touch_px": touch_px,
+        "pointer_px": pointer_px,
+        "tension": tension,
+        "material": material,
+    }
+    if string is not None:
+        c["string"] = string
+    return c
+
+
+def frame(
+    tick: int,
+    prev_tick: int,
+    t: float,
+    t_input: float | None,
+    device: str,
+    contacts: list[ContactWire],
+) -> FrameWire:
+    """The frame a daemon publishes for one device at one tick."""
+    return {
+        "v": SCHEMA_VERSION,
+        "kind": "frame",
+        "tick": tick,
+        "prev_tick": prev_tick,
+        "t": t,
+        "t_input": t_input,
+        "device": device,
+        "contacts": contacts,
+    }
+
+
 def frame_topic(device: str) -> bytes:
     """The topic of a device's frames; device names are UTF-8."""
     return TOPIC_FRAME + device.encode("utf-8")
@@ -208,11 +258,23 @@ def parse_request(payload: bytes) -> tuple[ControlOp, dict[str, Any]]:
 
 
 def ok_reply(**data: Any) -> bytes:
+    """An untyped ``ok`` reply, for tools that answer in the daemon's place
+    (clients/replay.py); the daemon's own replies use the typed builders below."""
     return encode({"v": SCHEMA_VERSION, "ok": True, **data})
 
 
+class ErrorReply(TypedDict):
+    v: int
+    ok: Literal[False]
+    error: str
+
+
+def error_message(message: str) -> ErrorReply:
+    return {"v": SCHEMA_VERSION, "ok": False, "error": message}
+
+
 def error_reply(message: str) -> bytes:
-    return encode({"v": SCHEMA_VERSION, "ok": False, "error": message})
+    return encode(error_message(message))
 
 
 def parse_reply(payload: bytes) -> dict[str, Any]:
@@ -324,3 +386,173 @@ def is_local_endpoint(endpoint: str) -> bool:
         return ipaddress.ip_address(host).is_loopback
     except ValueError:
         return False  # an interface name or "*": the network
+
+
+# --- control replies, one typed builder each (docs/protocol.md "Control") --------
+# Every reply is ``{"v", "ok": true, ...}``; the keys follow in the order given
+# here, which is the order on the wire.
+
+
+class PingReply(TypedDict):
+    v: int
+    ok: Literal[True]
+    tick: int
+    version: str
+    rate: float
+    keepalive: float
+
+
+def ping_reply(tick: int, version: str, rate: float, keepalive: float) -> PingReply:
+    return {
+        "v": SCHEMA_VERSION,
+        "ok": True,
+        "tick": tick,
+        "version": version,
+        "rate": rate,
+        "keepalive": keepalive,
+    }
+
+
+class SceneReply(TypedDict):
+    """`get_scene` (with the TOML text) and `set_scene` (without)."""
+
+    v: int
+    ok: Literal[True]
+    scene: SceneWire
+    toml: NotRequired[str]
+
+
+def scene_reply(scene: SceneWire, toml: str | None = None) -> SceneReply:
+    reply: SceneReply = {"v": SCHEMA_VERSION, "ok": True, "scene": scene}
+    if toml is not None:
+        reply["toml"] = toml
+    return reply
+
+
+class ParamsReply(TypedDict):
+    """`get_params` and `set_params`: the defaults, integrator and each material."""
+
+    v: int
+    ok: Literal[True]
+    params: dict[str, float]
+    integrator: str
+    materials: dict[str, MaterialWire]
+
+
+def params_reply(
+    params: Mapping[str, float], integrator: str, materials: dict[str, MaterialWire]
+) -> ParamsReply:
+    return {
+        "v": SCHEMA_VERSION,
+        "ok": True,
+        "params": dict(params),
+        "integrator": integrator,
+        "materials": materials,
+    }
+
+
+DeviceState = Literal["open", "absent", "waiting", "ended"]
+
+
+class DeviceWire(TypedDict):
+    name: str
+    spec: str
+    kind: str
+    state: DeviceState
+    surface_m: list[float] | None
+    mapping: str
+
+
+class DevicesReply(TypedDict):
+    v: int
+    ok: Literal[True]
+    devices: list[DeviceWire]
+
+
+def devices_reply(devices: list[DeviceWire]) -> DevicesReply:
+    return {"v": SCHEMA_VERSION, "ok": True, "devices": devices}
+
+
+class Summary(TypedDict):
+    """p50, p99 and max of a window in milliseconds; None before the first value."""
+
+    p50: float | None
+    p99: float | None
+    max: float | None
+
+
+class DeviceStatsWire(TypedDict):
+    state: DeviceState
+    spec: str
+    samples: int
+    rejected: int
+    errors: int
+    reopened: int
+    clock_steps: int
+    driver: dict[str, int]
+    rate_hz: NotRequired[float]
+    """Absent until measured (a statistic not measured yet is absent, not 0.0)."""
+
+
+class StatsWire(TypedDict):
+    uptime_s: float
+    rate: float
+    clock: str
+    ticks: int
+    late_ticks: int
+    skipped_deadlines: int
+    idle_deadlines: int
+    idle_wakes: int
+    realtime: int
+    late_threshold_ms: float
+    jitter_ms: Summary
+    latency_ms: Summary
+    tick_cost_ms: Summary
+    published: int
+    publish_dropped: int
+    control_requests: int
+    control_errors: int
+    scene_loads: int
+    scene_errors: int
+    reloads: int
+    devices: dict[str, DeviceStatsWire]
+
+
+class StatsReply(TypedDict):
+    v: int
+    ok: Literal[True]
+    stats: StatsWire
+
+
+def stats_reply(stats: StatsWire) -> StatsReply:
+    return {"v": SCHEMA_VERSION, "ok": True, "stats": stats}
+
+
+class SnapshotReply(TypedDict):
+    """What a late subscriber draws first: the scene and every device's last frame."""
+
+    v: int
+    ok: Literal[True]
+    tick: int
+    scene: SceneWire
+    frames: dict[str, FrameWire]
+    keepalive: float
+
+
+def snapshot_reply(
+    tick: int, scene: SceneWire, frames: Mapping[str, FrameWire], keepalive: float
+) -> SnapshotReply:
+    return {
+        "v": SCHEMA_VERSION,
+        "ok": True,
+        "tick": tick,
+        "scene": scene,
+        "frames": dict(frames),
+        "keepalive": keepalive,
+    }
+
+
+Reply = (
+    PingReply | SceneReply | ParamsReply | DevicesReply | StatsReply | SnapshotReply | ErrorReply
+)
+"""Any reply the control endpoint sends."""

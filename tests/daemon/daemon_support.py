@@ -10,7 +10,9 @@ import msgpack
 import zmq
 
 from stiction.daemon.devices import DeviceConfig, Spec
-from stiction.daemon.service import Daemon, Options
+from stiction.daemon.options import Options
+from stiction.daemon.publisher import Sink
+from stiction.daemon.service import Daemon
 from stiction.drivers.sample import PenSample
 from stiction.errors import DeviceError
 
@@ -88,11 +90,17 @@ def opener_for(sources: dict[str, Any]) -> Any:
     return opener
 
 
-def make_daemon(endpoints: tuple[str, str], sources: dict[str, Any], **opts: Any) -> Daemon:
+def make_daemon(
+    endpoints: tuple[str, str],
+    sources: dict[str, Any],
+    publisher: Sink | None = None,
+    **opts: Any,
+) -> Daemon:
+    """An opened daemon on `sources`; `publisher` (e.g. a Recorder) replaces the PUB socket."""
     o = Options(pub=endpoints[0], control=endpoints[1], hotplug=False, **opts)
     if not o.devices:
         o.devices = [DeviceConfig(spec) for spec in sources]
-    d = Daemon(o, opener=opener_for(sources))
+    d = Daemon(o, opener=opener_for(sources), publisher=publisher)
     d.open()
     return d
 

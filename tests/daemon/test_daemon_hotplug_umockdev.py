@@ -31,7 +31,8 @@ READER = textwrap.dedent(
     """
     import json, sys, threading
     from stiction.daemon.devices import DeviceConfig
-    from stiction.daemon.service import Daemon, Options
+    from stiction.daemon.options import Options
+    from stiction.daemon.service import Daemon
 
     EXPECTED = {expected}
     opts = Options(pub="ipc://{tmp}/pub", control="ipc://{tmp}/ctl",

@@ -19,38 +19,24 @@ from hypothesis import strategies as st
 from stiction import protocol
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.hotplug import Hotplug
-from stiction.daemon.service import Daemon, Options
+from stiction.daemon.options import Options
+from stiction.daemon.publisher import Recorder
+from stiction.daemon.service import Daemon
 from stiction.drivers.sample import PenSample
 from stiction.sim import ContactSim, Params
-
-
-def _record(d: Daemon) -> list[tuple[bytes, bytes]]:
-    """Capture every published message (the real socket still sends them)."""
-    pub = d.publisher
-    assert pub is not None
-    sent: list[tuple[bytes, bytes]] = []
-    original = pub.send
-
-    def send(topic: bytes, message: Any) -> bytes:
-        payload = original(topic, message)
-        sent.append((topic, payload))
-        return payload
-
-    pub.send = send  # type: ignore[method-assign]
-    return sent
 
 
 def _run_virtual(endpoints: tuple[str, str], spec: str) -> list[tuple[bytes, bytes]]:
     o = Options(pub=endpoints[0], control=endpoints[1], clock="virtual", hotplug=False)
     o.devices = [DeviceConfig(spec)]
-    d = Daemon(o)
+    recorder = Recorder()
+    d = Daemon(o, publisher=recorder)
     d.open()
-    sent = _record(d)
     try:
         assert d.run() == 0  # returns by itself at the end of the stream
     finally:
         d.close()
-    return sent
+    return recorder.messages
 
 
 def test_virtual_clock_replay_is_byte_identical_and_ends_by_itself(
@@ -122,8 +108,9 @@ def test_malformed_samples_are_counted_and_the_loop_keeps_going(
     samples = stroke(n=100)
     samples[50] = PenSample(t=samples[50].t, x=math.nan, y=0.05, tip=True)
     samples[60] = PenSample(t=math.inf, x=0.1, y=0.05, tip=True)
-    d = make_daemon(endpoints, {"replay:nan": ListSource(samples)}, clock="virtual")
-    sent = _record(d)
+    recorder = Recorder()
+    d = make_daemon(endpoints, {"replay:nan": ListSource(samples)}, recorder, clock="virtual")
+    sent = recorder.messages
     try:
         d.run()
         stats = d.stats()
@@ -390,8 +377,9 @@ def test_garbage_from_a_driver_is_rejected_and_the_loop_survives(
         PenSample(t=0.06, x=0.1, y=0.05, tip=True, contact="zero"),  # type: ignore[arg-type]
     ]
     samples = good[:10] + garbage + good[10:]
-    d = make_daemon(endpoints, {"replay:junk": ListSource(samples)}, clock="virtual")
-    sent = _record(d)
+    recorder = Recorder()
+    d = make_daemon(endpoints, {"replay:junk": ListSource(samples)}, recorder, clock="virtual")
+    sent = recorder.messages
     try:
         assert d.run() == 0
         stats = d.stats()

@@ -257,7 +257,8 @@ def run_daemon(
     """Run stictiond in this process; returns its stats, CPU %, grid start,
     and the lateness of every tick it ran with that tick's grid index."""
     from stiction.daemon.devices import DeviceConfig
-    from stiction.daemon.service import Daemon, Options
+    from stiction.daemon.options import Options
+    from stiction.daemon.service import Daemon
 
     opts = Options(
         pub=pub,
@@ -295,7 +296,7 @@ def run_daemon(
     try:
         daemon.run()
         cpu = (time.process_time() - cpu0) / (time.monotonic() - wall0) * 100
-        stats = daemon.stats()
+        stats: dict[str, Any] = dict(daemon.stats())
         jitter = daemon.jitter.values().copy()
         start = daemon.schedule.start
     finally:
@@ -305,7 +306,7 @@ def run_daemon(
 
 
 def _default_spin_ms() -> float:
-    from stiction.daemon.service import Options
+    from stiction.daemon.options import Options
 
     return Options().spin_ms
 

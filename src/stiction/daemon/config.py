@@ -9,18 +9,16 @@ from __future__ import annotations
 
 import logging
 import math
-import tomllib
-from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from stiction.argtypes import check_endpoint
 from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, spec_problem
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
+from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
-from stiction.daemon.service import Options
 from stiction.errors import StictionError
-from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
+from stiction.tomlcheck import FieldPath, TomlReader
 from stiction.userfiles import read_regular_text
 
 log = logging.getLogger(__name__)
@@ -44,6 +42,8 @@ _DAEMON_KEYS = {
     "spin_ms",
     "realtime",
 }
+_FLOATS = {"rate", "late_threshold_ms", "keepalive", "spin_ms"}
+"""Number options a TOML integer may give: stored as float, as the flags store them."""
 _SIM_KEYS = {"integrator", "substeps", "k", "m", "g", "mu_s", "mu_k", "C_l"}
 _CURVE_KEYS = {"secret_key", "authorized_keys", "required"}
 _DEVICE_KEYS = {
@@ -62,23 +62,12 @@ _DEVICE_KEYS = {
 }
 
 
-class _Reader:
+class _Reader(TomlReader):
+    """The shared TOML checker plus the config's number and path rules."""
+
     def __init__(self, path: Path, text: str) -> None:
+        super().__init__(path, text, ConfigError)
         self.file = path
-        self.lines = field_lines(text)
-
-    def fail(self, where: FieldPath, message: str) -> NoReturn:
-        line = line_of(self.lines, where)
-        loc = f"{self.file}:{line}" if line else str(self.file)
-        raise ConfigError(f"{loc}: {format_path(where)}: {message}")
-
-    def table(self, data: Any, where: FieldPath, keys: set[str]) -> Mapping[str, Any]:
-        if not isinstance(data, dict):
-            self.fail(where, "must be a table")
-        for key in data:
-            if key not in keys:
-                self.fail((*where, key), f"unknown key; expected one of {', '.join(sorted(keys))}")
-        return data
 
     def number(self, value: Any, where: FieldPath, positive: bool = True) -> float:
         if isinstance(value, bool) or not isinstance(value, (int, float)):
@@ -86,11 +75,6 @@ class _Reader:
         if not math.isfinite(value) or (positive and value <= 0):
             self.fail(where, f"must be a positive finite number, got {value!r}")
         return float(value)
-
-    def string(self, value: Any, where: FieldPath) -> str:
-        if not isinstance(value, str) or not value:
-            self.fail(where, f"must be a non-empty string, got {value!r}")
-        return value
 
     def numbers(self, value: Any, where: FieldPath, n: int) -> tuple[float, ...]:
         if not isinstance(value, list) or len(value) != n:
@@ -107,24 +91,22 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     # A regular file of at most 1 MiB: SIGHUP re-reads it on a reload worker,
     # and a FIFO or /dev/zero named as the config must not block or fill it.
     text = read_regular_text(path, 1 << 20, ConfigError, "config")
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ConfigError(f"{path}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise ConfigError(f"{path}: arrays or tables nested too deeply") from None
     r = _Reader(path, text)
+    data = r.data
     r.table(data, (), {"daemon", "sim", "curve", "devices"})
     opts = base if base is not None else Options()
     opts.config_path = path
 
     d = r.table(data.get("daemon", {}), ("daemon",), _DAEMON_KEYS)
-    if "rate" in d:
-        opts.rate = r.number(d["rate"], ("daemon", "rate"))
-    if "clock" in d:
-        if d["clock"] not in ("real", "virtual"):
-            r.fail(("daemon", "clock"), f"must be 'real' or 'virtual', got {d['clock']!r}")
-        opts.clock = d["clock"]
+    for key in ("rate", "late_threshold_ms", "keepalive", "spin_ms"):
+        if key in d:
+            r.number(d[key], ("daemon", key), positive=False)
+    for key in ("rate", "clock", "hwm", "late_threshold_ms", "keepalive", "spin_ms", "realtime"):
+        if key in d:
+            wrong = problem(key, d[key])
+            if wrong is not None:
+                r.fail(("daemon", key), wrong)
+            setattr(opts, key, float(d[key]) if key in _FLOATS else d[key])
     for key in ("pub", "control"):
         if key in d:
             text = r.string(d[key], ("daemon", key))
@@ -139,41 +121,17 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         if w <= 0 or h <= 0 or w != int(w) or h != int(h):
             r.fail(("daemon", "display"), "must be [width, height] in whole pixels > 0")
         opts.display = (int(w), int(h))
-    if "hwm" in d:
-        hwm = r.number(d["hwm"], ("daemon", "hwm"))
-        if hwm != int(hwm) or hwm < 1:
-            r.fail(("daemon", "hwm"), f"must be a whole number of messages, 1 or more, got {hwm}")
-        opts.hwm = int(hwm)
-    if "late_threshold_ms" in d:
-        opts.late_threshold_ms = r.number(d["late_threshold_ms"], ("daemon", "late_threshold_ms"))
-    if "keepalive" in d:
-        keepalive = r.number(d["keepalive"], ("daemon", "keepalive"), positive=False)
-        if keepalive < 0:
-            r.fail(("daemon", "keepalive"), "must be 0 (every tick) or more seconds")
-        opts.keepalive = keepalive
-    if "spin_ms" in d:
-        spin = r.number(d["spin_ms"], ("daemon", "spin_ms"), positive=False)
-        if not 0 <= spin <= 5:
-            r.fail(("daemon", "spin_ms"), "must be from 0 to 5 (milliseconds)")
-        opts.spin_ms = spin
-    if "realtime" in d:
-        prio = d["realtime"]
-        if isinstance(prio, bool) or not isinstance(prio, int) or not 0 <= prio <= 99:
-            r.fail(("daemon", "realtime"), f"must be a priority 1-99 (0: off), got {prio!r}")
-        opts.realtime = prio
     if "hotplug" in d:
-        if not isinstance(d["hotplug"], bool):
-            r.fail(("daemon", "hotplug"), "must be true or false")
-        opts.hotplug = d["hotplug"]
+        opts.hotplug = r.boolean(d["hotplug"], ("daemon", "hotplug"))
 
     s = r.table(data.get("sim", {}), ("sim",), _SIM_KEYS)
     if "integrator" in s:
         opts.integrator = r.string(s["integrator"], ("sim", "integrator"))
     if "substeps" in s:
-        n = s["substeps"]
-        if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-            r.fail(("sim", "substeps"), f"must be a whole number >= 1, got {n!r}")
-        opts.substeps = n
+        wrong = problem("substeps", s["substeps"])
+        if wrong is not None:
+            r.fail(("sim", "substeps"), wrong)
+        opts.substeps = s["substeps"]
     opts.params = {
         k: r.number(v, ("sim", k), positive=k not in ("mu_s", "mu_k"))
         for k, v in s.items()

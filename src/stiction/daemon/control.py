@@ -7,11 +7,12 @@ request sees a consistent state and never races the tick. Every request gets
 exactly one reply (the REP rule); anything malformed gets an error reply and
 is counted, and the daemon carries on.
 
-What is slow or touches the file system -- reading and compiling a scene for
-`set_scene`, compiling the changed scene of `set_params` -- is done on the
-control thread before the request is queued (`_prepare`), checked completely
-(including that every message it will cause can be encoded); the loop thread
-only swaps the ready pipeline in. A request larger than
+This module is only the transport: it decodes a request into (op, args)
+and hands them to an op table (daemon/ops.py), which says what each op does.
+What is slow or touches the file system -- the op table's `prepare`, e.g.
+reading and compiling a scene for `set_scene` -- runs on the control thread
+before the request is queued; the loop thread only runs the prepared swap or
+answers a query. A request larger than
 protocol.MAX_MESSAGE_BYTES still gets a reply naming the limit; only one
 larger than TRANSPORT_MAX_BYTES is cut off by ZeroMQ before it is read.
 """
@@ -22,17 +23,13 @@ import logging
 import queue
 import threading
 from collections.abc import Callable
-from pathlib import Path
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 import zmq
 
 from stiction import protocol
 from stiction.daemon.security import Guard
 from stiction.errors import ProtocolError, StictionError
-
-if TYPE_CHECKING:
-    from stiction.daemon.service import Daemon
 
 log = logging.getLogger("stiction.daemon.control")
 
@@ -41,13 +38,22 @@ TRANSPORT_MAX_BYTES = 64 * protocol.MAX_MESSAGE_BYTES
 MAX_MESSAGE_BYTES and this a request is received and refused in words."""
 
 
+class Handler(Protocol):
+    """An op table (daemon/ops.py's OpTable): what the transport hands requests to."""
+
+    def prepare(
+        self, op: protocol.ControlOp, args: dict[str, Any]
+    ) -> Callable[[], protocol.Reply] | None: ...
+    def answer(self, op: protocol.ControlOp, args: dict[str, Any]) -> protocol.Reply: ...
+
+
 class ControlServer:
     def __init__(
         self,
         ctx: zmq.Context[Any],
         endpoint: str,
         guard: Guard,
-        daemon: Daemon,
+        ops: Handler,
         on_request: Callable[[], None] = lambda: None,
     ) -> None:
         self.sock = ctx.socket(zmq.REP)
@@ -59,7 +65,7 @@ class ControlServer:
             self.sock.close(linger=0)
             raise
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
-        self.daemon = daemon
+        self.ops = ops
         self._on_request = on_request
         """Called after a request is queued: wakes an idle loop to answer it."""
         self.requests = 0
@@ -105,57 +111,13 @@ class ControlServer:
         """The slow part of a changing request, done off the tick thread; None if there is none."""
         try:
             op, args = protocol.parse_request(payload)
-            if op == "set_scene":
-                return self._prepare_scene(args)
-            if op == "set_params":
-                return self._prepare_params(args)
+            apply = self.ops.prepare(op, args)
+            return None if apply is None else _Prepared(apply=apply)
         except StictionError as exc:
             return _Prepared(error=str(exc))
         except Exception as exc:  # a bug must not take the control thread down
             log.exception("control_prepare_failed")
             return _Prepared(error=f"internal error: {type(exc).__name__}: {exc}")
-        return None
-
-    def _prepare_scene(self, args: dict[str, Any]) -> _Prepared:
-        d = self.daemon
-        _only(args, {"toml", "path"}, "set_scene")
-        if ("toml" in args) == ("path" in args):
-            raise ProtocolError("set_scene needs exactly one of 'toml' or 'path'")
-        if "toml" in args:
-            text = args["toml"]
-            if not isinstance(text, str):
-                raise ProtocolError("set_scene 'toml' must be a string")
-            scene = d.load_scene_text(text, "<control>")
-        else:
-            path = args["path"]
-            if not isinstance(path, str):
-                raise ProtocolError("set_scene 'path' must be a string")
-            scene = d.load_scene_file(Path(path))
-        pipeline = d.prepare_scene(scene)
-
-        def apply() -> dict[str, Any]:
-            d.apply_pipeline(pipeline)
-            return {"scene": d.pipeline.wire()}
-
-        return _Prepared(apply=apply)
-
-    def _prepare_params(self, args: dict[str, Any]) -> _Prepared:
-        d = self.daemon
-        material = args.pop("material", None)
-        if material is not None and not isinstance(material, str):
-            raise ProtocolError("set_params 'material' must be a string")
-        base = d.pipeline
-        pipeline, defaults = d.prepare_params(args, material)
-
-        def apply() -> dict[str, Any]:
-            if d.pipeline is base:
-                d.apply_pipeline(pipeline, defaults)
-            else:  # the scene changed meanwhile: apply the change to the new one
-                d.apply_pipeline(*d.prepare_params(args, material))
-            log.info("params_set material=%s values=%s", material, args)
-            return d.params_reply()
-
-        return _Prepared(apply=apply)
 
     def handle(self, payload: bytes, prepared: _Prepared | None = None) -> bytes:
         self.requests += 1
@@ -166,9 +128,9 @@ class ControlServer:
                 if prepared.error is not None:
                     raise ProtocolError(prepared.error)
                 assert prepared.apply is not None
-                return protocol.ok_reply(**prepared.apply())
+                return protocol.encode(prepared.apply())
             op, args = protocol.parse_request(payload)
-            return protocol.ok_reply(**self._dispatch(op, args))
+            return protocol.encode(self.ops.answer(op, args))
         except StictionError as exc:
             self.errors += 1
             log.warning("control_error error=%s", exc)
@@ -177,24 +139,6 @@ class ControlServer:
             self.errors += 1
             log.exception("control_failed")
             return protocol.error_reply(f"internal error: {type(exc).__name__}: {exc}")
-
-    def _dispatch(self, op: str, args: dict[str, Any]) -> dict[str, Any]:
-        d = self.daemon
-        if op == "ping":
-            return d.ping()
-        if op == "get_scene":
-            scene = d.pipeline.scene
-            return {"scene": d.pipeline.wire(), "toml": scene.text}
-        if op == "get_params":
-            _only(args, set(), op)
-            return d.params_reply()
-        if op == "devices":
-            return {"devices": d.devices()}
-        if op == "stats":
-            return {"stats": d.stats()}
-        if op == "snapshot":
-            return d.snapshot()
-        raise ProtocolError(f"op {op!r} is not served")
 
     def close(self) -> None:
         self._stop.set()
@@ -207,7 +151,7 @@ class _Prepared:
     __slots__ = ("apply", "error")
 
     def __init__(
-        self, apply: Callable[[], dict[str, Any]] | None = None, error: str | None = None
+        self, apply: Callable[[], protocol.Reply] | None = None, error: str | None = None
     ) -> None:
         self.apply = apply
         self.error = error
@@ -221,9 +165,3 @@ class _Pending:
         self.prepared: _Prepared | None = None
         self.reply = b""
         self.done = threading.Event()
-
-
-def _only(args: dict[str, Any], allowed: set[str], op: str) -> None:
-    extra = sorted(set(args) - allowed)
-    if extra:
-        raise ProtocolError(f"{op} does not take {', '.join(extra)}")

@@ -13,6 +13,7 @@ import signal
 import sys
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from stiction import __version__
 from stiction.argtypes import (
@@ -23,6 +24,9 @@ from stiction.argtypes import (
     positive_int,
 )
 from stiction.errors import StictionError
+
+if TYPE_CHECKING:
+    from stiction.daemon.options import Options
 
 log = logging.getLogger("stiction.daemon")
 
@@ -102,11 +106,12 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
-def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
+def options_from_args(args: argparse.Namespace) -> Options:
+    """Flags over the config file over the defaults, checked by the one validate()."""
     from stiction.daemon.config import load_options
     from stiction.daemon.devices import DeviceConfig
+    from stiction.daemon.options import Options, validate
     from stiction.daemon.security import CurveConfig
-    from stiction.daemon.service import Options
 
     opts = load_options(args.config) if args.config else Options()
     if args.device:
@@ -136,7 +141,7 @@ def options_from_args(args: argparse.Namespace):  # type: ignore[no-untyped-def]
         )
     if args.no_hotplug:
         opts.hotplug = False
-    return opts
+    return validate(opts)
 
 
 def _fixed_mmap_threshold() -> None:

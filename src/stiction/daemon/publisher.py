@@ -8,12 +8,16 @@ The socket is an XPUB, which behaves as a PUB for sending but also hands the
 daemon each subscription as it arrives: `wait_subscribers` uses that so a
 virtual-clock replay can hold its first tick until its readers are
 subscribed (a PUB silently drops what it sends before a subscription lands).
+
+`Sink` is what the loop needs of a publisher. The daemon builds this ZeroMQ
+one unless it is given another: a test gives it a `Recorder` and reads the
+exact payloads the loop published, with no socket and no patching.
 """
 
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import Any
+from typing import Any, Protocol
 
 import zmq
 
@@ -21,7 +25,21 @@ from stiction import protocol
 from stiction.daemon.security import Guard
 
 
+class Sink(Protocol):
+    """What the daemon's loop publishes through."""
+
+    endpoint: str
+    sent: int
+    dropped: int
+
+    def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes: ...
+    def wait_subscribers(self, n: int, timeout: float) -> int: ...
+    def close(self) -> None: ...
+
+
 class Publisher:
+    """The ZeroMQ XPUB publisher (the daemon's default Sink)."""
+
     def __init__(self, ctx: zmq.Context[Any], endpoint: str, guard: Guard, hwm: int) -> None:
         self.sock = ctx.socket(zmq.XPUB)
         self.sock.setsockopt(zmq.XPUB_VERBOSE, 1)  # every subscriber's, not just the first
@@ -72,3 +90,29 @@ class Publisher:
 
     def close(self) -> None:
         self.sock.close(linger=0)
+
+
+class Recorder:
+    """A Sink that keeps every (topic, payload) it is given, in order.
+
+    The payload is the encoded message, byte for byte what the ZeroMQ
+    publisher would have sent. Subscribers are taken as present at once.
+    """
+
+    def __init__(self, endpoint: str = "recorder") -> None:
+        self.endpoint = endpoint
+        self.sent = 0
+        self.dropped = 0
+        self.messages: list[tuple[bytes, bytes]] = []
+
+    def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes:
+        payload = protocol.encode(message)
+        self.messages.append((topic, payload))
+        self.sent += 1
+        return payload
+
+    def wait_subscribers(self, n: int, timeout: float) -> int:
+        return n
+
+    def close(self) -> None:
+        pass

@@ -26,9 +26,8 @@ import sys
 import threading
 import time
 from collections.abc import Callable
-from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import zmq
 
@@ -42,6 +41,7 @@ from stiction.daemon.clock import (
     set_realtime,
     tighten_timer_slack,
 )
+from stiction.daemon.config import load_options
 from stiction.daemon.control import ControlServer
 from stiction.daemon.devices import (
     ClockMap,
@@ -55,15 +55,17 @@ from stiction.daemon.devices import (
     take_virtual,
 )
 from stiction.daemon.mapping import MappingConfig, make_mapping
-from stiction.daemon.publisher import Publisher
-from stiction.daemon.security import CurveConfig, Guard
+from stiction.daemon.ops import OpTable
+from stiction.daemon.options import Options, validate
+from stiction.daemon.publisher import Publisher, Sink
+from stiction.daemon.security import Guard
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
 from stiction.drivers.info import DeviceInfo
 from stiction.drivers.source import SampleSource
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
-from stiction.scene.load import DEFAULT_DISPLAY, default_scene, load_scene, parse_scene
+from stiction.scene.load import default_scene, load_scene, parse_scene
 from stiction.scene.model import Scene
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
@@ -75,88 +77,45 @@ Opener = Callable[[Spec, DeviceConfig, bool, bool], SampleSource]
 """open_source's signature: spec, its config, realtime, loop."""
 
 
-@dataclass
-class Options:
-    """Everything the daemon is configured with (config file and flags merged)."""
-
-    rate: float = 100.0
-    clock: str = "real"
-    pub: str = protocol.DEFAULT_PUB
-    control: str = protocol.DEFAULT_CONTROL
-    scene: Path | None = None
-    display: tuple[int, int] = DEFAULT_DISPLAY
-    devices: list[DeviceConfig] = field(default_factory=list)
-    params: dict[str, float] = field(default_factory=dict)
-    integrator: str = "default"
-    substeps: int = 1
-    hwm: int = 1000
-    late_threshold_ms: float | None = None
-    seconds: float | None = None
-    wait_subscribers: int = 0
-    """Virtual clock: hold the first tick until this many subscriptions arrived."""
-    wait_timeout: float = 30.0
-    curve: CurveConfig = field(default_factory=CurveConfig)
-    hotplug: bool = True
-    config_path: Path | None = None
-    scene_from_flag: bool = False
-    stats_window: int = 10_000
-    """Ticks kept for the jitter/latency percentiles of the stats reply."""
-    keepalive: float = 1.0
-    """While nothing happens, run one tick (a frame per device) every this
-    many seconds instead of every period; 0 never idles."""
-    spin_ms: float = 0.3
-    """Sleep to this long before each deadline, then poll the clock (RealClock)."""
-    start: float | None = None
-    """Monotonic time of deadline 0 (real clock); default 10 ms after run()
-    starts. Processes that share CLOCK_MONOTONIC can share a grid."""
-    realtime: int = 0
-    """SCHED_FIFO priority (1-99) for the loop thread; 0: ordinary scheduling."""
-
-
 class Daemon:
     def __init__(
         self,
         opts: Options,
         ctx: zmq.Context[Any] | None = None,
         opener: Opener = open_source,
+        publisher: Sink | None = None,
     ) -> None:
-        self.opts = opts
+        """`publisher`: where frames and scene messages go; default, a ZeroMQ
+        PUB bound to opts.pub when the daemon opens."""
+        self.opts = validate(opts)
         self.opener = opener
         self.virtual = opts.clock == "virtual"
-        if opts.clock not in ("real", "virtual"):
-            raise StictionError(f"clock must be 'real' or 'virtual', got {opts.clock!r}")
         self.backend = SimulatorBackend(opts.integrator, opts.substeps)
         self.defaults = {**self.backend.defaults(), **opts.params, "rate": opts.rate}
         scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
         self.pipeline = Pipeline(scene, self.backend, self.defaults)
-        if not (math.isfinite(opts.keepalive) and opts.keepalive >= 0):
-            raise StictionError(f"keepalive must be 0 or more seconds, got {opts.keepalive}")
-        try:
-            self.clock: Clock = VirtualClock() if self.virtual else RealClock(opts.spin_ms / 1e3)
-        except ValueError:
-            raise StictionError(
-                f"spin_ms must be from 0 to 5 (milliseconds), got {opts.spin_ms:g}"
-            ) from None
-        if not 0 <= opts.realtime <= 99:
-            raise StictionError(f"realtime must be a priority 1-99 (0: off), got {opts.realtime}")
+        self.clock: Clock = VirtualClock() if self.virtual else RealClock(opts.spin_ms / 1e3)
         self.realtime = 0
         """The SCHED_FIFO priority the loop runs at (0: ordinary)."""
         self.waker = Waker()
         self._own_ctx = ctx is None
         self.ctx: zmq.Context[Any] = ctx if ctx is not None else zmq.Context()
         self.guard = Guard(self.ctx, opts.curve)
-        self.publisher: Publisher | None = None
+        self._given_publisher = publisher
+        self.publisher: Sink | None = None
         self.control: ControlServer | None = None
         self.slots: list[DeviceSlot] = []
         self.schedule = Schedule(opts.rate, 0.0, _ms(opts.late_threshold_ms))
         self.last_tick = -1
         self.last_tick_t = -math.inf
         """Deadline of the last tick run (the keep-alive counts from it)."""
-        self.last_frames: dict[str, dict[str, Any]] = {}
+        self.last_frames: dict[str, protocol.FrameWire] = {}
         self.jitter = Window(opts.stats_window)
         self.latency = Window(opts.stats_window)
         self.cost = Window(opts.stats_window)
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
+        self.generation = 0
+        """Counts pipeline swaps (a change prepared against an older pipeline is redone)."""
         self._stop = threading.Event()
         self._reload = threading.Event()
         self._reload_worker: threading.Thread | None = None
@@ -180,9 +139,11 @@ class Daemon:
             raise
 
     def _open(self) -> None:
-        self.publisher = Publisher(self.ctx, self.opts.pub, self.guard, self.opts.hwm)
+        self.publisher = self._given_publisher or Publisher(
+            self.ctx, self.opts.pub, self.guard, self.opts.hwm
+        )
         self.control = ControlServer(
-            self.ctx, self.opts.control, self.guard, self, on_request=self.waker.wake
+            self.ctx, self.opts.control, self.guard, OpTable(self), on_request=self.waker.wake
         )
         configs = self.opts.devices or _auto_devices()
         for cfg in configs:
@@ -512,16 +473,8 @@ class Daemon:
                 and last is not None
                 and not last["contacts"]
             )
-            frame: dict[str, Any] = {
-                "v": protocol.SCHEMA_VERSION,
-                "kind": protocol.KIND_FRAME,
-                "tick": tick,
-                "prev_tick": slot.sent_tick,
-                "t": t,
-                "t_input": slot.last_t if math.isfinite(slot.last_t) else None,
-                "device": slot.name,
-                "contacts": contacts,
-            }
+            t_input = slot.last_t if math.isfinite(slot.last_t) else None
+            frame = protocol.frame(tick, slot.sent_tick, t, t_input, slot.name, contacts)
             pub.send(protocol.frame_topic(slot.name), frame)
             self.last_frames[slot.name] = frame
             slot.sent_tick = tick
@@ -576,7 +529,7 @@ class Daemon:
             )
             wire = pipeline.wire()
             protocol.encode(protocol.scene_message(wire, max(self.last_tick, 0)))
-            protocol.ok_reply(scene=wire, toml=scene.text)
+            protocol.encode(protocol.scene_reply(wire, scene.text))
         except StictionError:
             if count:
                 self.counters["scene_errors"] += 1
@@ -591,6 +544,7 @@ class Daemon:
         if defaults is not None:
             self.defaults = defaults
         self.counters["scene_loads"] += 1
+        self.generation += 1
         if scene.display != old_display:
             for slot in self.slots:
                 if slot.run is not None:
@@ -631,6 +585,9 @@ class Daemon:
     def set_params(self, values: dict[str, Any], material: str | None) -> None:
         """Change material parameters; refused as a whole if any value is invalid."""
         self.apply_pipeline(*self.prepare_params(values, material))
+        self.log_params(values, material)
+
+    def log_params(self, values: dict[str, Any], material: str | None) -> None:
         log.info("params_set material=%s values=%s", material, values)
 
     def reload(self) -> None:
@@ -639,8 +596,6 @@ class Daemon:
         Runs on the caller's thread (a reload worker, not the loop): files are
         read and the scene compiled here, and only the swap is posted to the loop.
         """
-        from stiction.daemon.config import load_options
-
         # `reloads` counts finished reloads (refused or applied), so a client
         # that sees it move also sees the outcome.
         opts = self.opts
@@ -729,11 +684,11 @@ class Daemon:
         return base if n == 0 else f"{base}#{n + 1}"
 
     # ------------------------------------------------------------ replies
-    def stats(self) -> dict[str, Any]:
+    def stats(self) -> protocol.StatsWire:
         pub = self.publisher
-        devices: dict[str, Any] = {}
+        devices: dict[str, protocol.DeviceStatsWire] = {}
         for slot in self.slots:
-            devices[slot.name] = {
+            device: protocol.DeviceStatsWire = {
                 "state": _reported_state(slot),
                 "spec": slot.config.spec,
                 "samples": slot.samples,
@@ -745,7 +700,8 @@ class Daemon:
             }
             # protocol.md: a statistic not measured yet is absent, not 0.0.
             if slot.meter.rate is not None:
-                devices[slot.name]["rate_hz"] = round(slot.meter.rate, 2)
+                device["rate_hz"] = round(slot.meter.rate, 2)
+            devices[slot.name] = device
         control = self.control
         return {
             "uptime_s": round(time.monotonic() - self._started, 3),
@@ -758,55 +714,49 @@ class Daemon:
             "idle_wakes": self.waker.wakes,
             "realtime": self.realtime,
             "late_threshold_ms": self.schedule.late_threshold * 1e3,
-            "jitter_ms": self.jitter.summary(1e3),
-            "latency_ms": self.latency.summary(1e3),
-            "tick_cost_ms": self.cost.summary(1e3),
+            "jitter_ms": _summary(self.jitter),
+            "latency_ms": _summary(self.latency),
+            "tick_cost_ms": _summary(self.cost),
             "published": pub.sent if pub else 0,
             "publish_dropped": pub.dropped if pub else 0,
             "control_requests": control.requests if control else 0,
             "control_errors": control.errors if control else 0,
-            **self.counters,
+            "scene_loads": self.counters["scene_loads"],
+            "scene_errors": self.counters["scene_errors"],
+            "reloads": self.counters["reloads"],
             "devices": devices,
         }
 
-    def devices(self) -> list[dict[str, Any]]:
-        out = []
-        for slot in self.slots:
-            out.append(
-                {
-                    "name": slot.name,
-                    "spec": slot.config.spec,
-                    "kind": slot.kind,
-                    "state": _reported_state(slot),
-                    "surface_m": list(slot.surface_size) if slot.surface_size else None,
-                    "mapping": self._mapping_config(slot).mode,
-                }
-            )
-        return out
+    def devices(self) -> list[protocol.DeviceWire]:
+        return [
+            {
+                "name": slot.name,
+                "spec": slot.config.spec,
+                "kind": slot.kind,
+                "state": _reported_state(slot),
+                "surface_m": list(slot.surface_size) if slot.surface_size else None,
+                "mapping": self._mapping_config(slot).mode,
+            }
+            for slot in self.slots
+        ]
 
-    def params_reply(self) -> dict[str, Any]:
-        wire = self.pipeline.wire()
-        return {
-            "params": {k: v for k, v in self.defaults.items()},
-            "integrator": self.backend.integrator,
-            "materials": wire["materials"],
-        }
+    def scene_wire(self) -> protocol.SceneWire:
+        return self.pipeline.wire()
 
-    def ping(self) -> dict[str, Any]:
-        return {
-            "tick": self.last_tick,
-            "version": __version__,
-            "rate": self.opts.rate,
-            "keepalive": self.opts.keepalive,
-        }
+    def scene_text(self) -> str:
+        return self.pipeline.scene.text
 
-    def snapshot(self) -> dict[str, Any]:
-        return {
-            "tick": self.last_tick,
-            "scene": self.pipeline.wire(),
-            "frames": dict(self.last_frames),
-            "keepalive": self.opts.keepalive,
-        }
+    def params_reply(self) -> protocol.ParamsReply:
+        materials = self.pipeline.wire()["materials"]
+        return protocol.params_reply(self.defaults, self.backend.integrator, materials)
+
+    def ping(self) -> protocol.PingReply:
+        return protocol.ping_reply(self.last_tick, __version__, self.opts.rate, self.opts.keepalive)
+
+    def snapshot(self) -> protocol.SnapshotReply:
+        return protocol.snapshot_reply(
+            self.last_tick, self.pipeline.wire(), self.last_frames, self.opts.keepalive
+        )
 
 
 def _discover_nodes() -> list[DeviceInfo]:
@@ -845,6 +795,13 @@ def _ms(value: float | None) -> float | None:
     return None if value is None else value / 1e3
 
 
-def _reported_state(slot: DeviceSlot) -> str:
+def _reported_state(slot: DeviceSlot) -> protocol.DeviceState:
     """`waiting` for a device never opened yet (a typo is refused at start), else the state."""
-    return "waiting" if slot.state == "absent" and not slot.opened else slot.state
+    if slot.state == "absent" and not slot.opened:
+        return "waiting"
+    return cast(protocol.DeviceState, slot.state)
+
+
+def _summary(window: Window) -> protocol.Summary:
+    """A window's p50/p99/max in milliseconds, as the stats reply carries them."""
+    return cast(protocol.Summary, window.summary(1e3))

@@ -29,7 +29,7 @@ from typing import IO, Any
 import zmq
 
 from stiction import protocol
-from stiction.demo import _daemon_command
+from stiction.daemon.spawn import daemon_command
 from stiction.drivers.fake.feed import format_state
 from stiction.drivers.fake.strokes import DT, PenState
 from stiction.errors import StictionError
@@ -51,7 +51,7 @@ class SteeredDaemon:
         self.log_path = log_path or self.dir / "stictiond.log"
         self._log: IO[bytes] = open(self.log_path, "wb")  # noqa: SIM115
         cmd = [
-            *_daemon_command(),
+            *daemon_command(),
             *("--device", "synthetic:stdin", "--clock", "virtual", "--scene", str(scene)),
             *("--pub", self.pub, "--control", self.control, "--wait-subscribers", "1"),
             *("--wait-timeout", "60", "--no-hotplug"),

@@ -1,18 +1,26 @@
 """The real simulator behind the pipeline's SimBackend interface.
 
-Kept apart from the pipeline so that the scene package compiles and is
-testable on its own, and so that the one place that knows the simulator's
-constructor signature is this file (contract: stiction/sim/__init__.py).
+Kept apart from the pipeline so that the scene package's pipeline compiles
+and is testable on its own (against any SimBackend), and so that the one
+place that knows the simulator's constructor signatures is this file
+(contract: stiction/sim/__init__.py). The scene package sits above the
+simulator, so this imports it directly; only the batch row stepper, which
+pulls in numpy and the compiled kernels, is imported when first asked for.
 """
 
 from __future__ import annotations
 
-import importlib
 from collections.abc import Mapping
-from typing import Any, cast
+from typing import TYPE_CHECKING
 
-from stiction.errors import ParamError, StictionError
+from stiction.errors import ParamError
 from stiction.scene.pipeline import ContactModel
+from stiction.sim.contact import ContactSim
+from stiction.sim.integrators import INTEGRATORS
+from stiction.sim.params import Params
+
+if TYPE_CHECKING:
+    from stiction.sim.rows import RowStepper
 
 PARAM_NAMES = ("k", "m", "g", "mu_s", "mu_k", "C_l", "rate")
 
@@ -21,14 +29,8 @@ class SimulatorBackend:
     """Params and ContactSim from stiction.sim, with one integrator choice."""
 
     def __init__(self, integrator: str = "default", substeps: int = 1) -> None:
-        sim = importlib.import_module("stiction.sim")
-        self._params_cls: Any = getattr(sim, "Params", None)
-        self._contact_cls: Any = getattr(sim, "ContactSim", None)
-        if self._params_cls is None or self._contact_cls is None:
-            raise StictionError("the simulator (stiction.sim) is not available in this build")
-        known = getattr(sim, "INTEGRATORS", None)
-        if known is not None and integrator not in known:
-            raise ParamError(f"unknown integrator {integrator!r}; known: {', '.join(known)}")
+        if integrator not in INTEGRATORS:
+            raise ParamError(f"unknown integrator {integrator!r}; known: {', '.join(INTEGRATORS)}")
         if substeps < 1:
             raise ParamError(f"substeps must be at least 1, got {substeps}")
         self.integrator = integrator
@@ -36,19 +38,17 @@ class SimulatorBackend:
 
     def defaults(self) -> dict[str, float]:
         """The simulator's own default parameters (docs/design/model.md's table)."""
-        p = self._params_cls()
+        p = Params()
         return {name: float(getattr(p, name)) for name in PARAM_NAMES}
 
-    def params(self, values: Mapping[str, float]) -> Any:
-        return self._params_cls.from_mapping({k: v for k, v in values.items() if k in PARAM_NAMES})
+    def params(self, values: Mapping[str, float]) -> Params:
+        return Params.from_mapping({k: v for k, v in values.items() if k in PARAM_NAMES})
 
-    def rows(self) -> Any:
-        """The row stepper for the pipeline's batch step (stiction.sim.rows.RowStepper)."""
-        rows = importlib.import_module("stiction.sim.rows")
-        return rows.RowStepper(self.integrator, self.substeps)
+    def rows(self) -> RowStepper:
+        """The row stepper for the pipeline's batch step (numpy and numba: loaded on use)."""
+        from stiction.sim.rows import RowStepper
 
-    def contact(self, params: Any, string: bool) -> ContactModel:
-        return cast(
-            ContactModel,
-            self._contact_cls(params, self.integrator, substeps=self.substeps, string=string),
-        )
+        return RowStepper(self.integrator, self.substeps)
+
+    def contact(self, params: Params, string: bool) -> ContactModel:
+        return ContactSim(params, self.integrator, substeps=self.substeps, string=string)

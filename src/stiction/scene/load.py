@@ -10,14 +10,12 @@ unknown keys are errors rather than silently ignored typos.
 from __future__ import annotations
 
 import math
-import tomllib
 from collections.abc import Mapping
 from pathlib import Path
-from typing import Any, NoReturn
+from typing import Any
 
 from stiction.errors import SceneError
 from stiction.protocol import PASS_THROUGH
-from stiction.scene.locate import FieldPath, field_lines, format_path, line_of
 from stiction.scene.model import (
     PRESSURE_LOAD,
     STICK_SLIP,
@@ -31,6 +29,8 @@ from stiction.scene.model import (
     Scene,
     Shape,
 )
+from stiction.tomlcheck import FieldPath, TomlReader
+from stiction.tomlcheck import kind as _kind
 from stiction.userfiles import read_regular_text
 
 EFFECTS = (STICK_SLIP, STRING, PRESSURE_LOAD)
@@ -55,28 +55,11 @@ MAX_FRICTION = 100.0
 MAX_DISPLAY_PX = 1 << 16
 
 
-class _Checker:
-    """Carries the file name and line table so each check can raise a full message."""
+class _Checker(TomlReader):
+    """The shared TOML checker plus a scene's number and coordinate rules."""
 
     def __init__(self, source: str, text: str) -> None:
-        self.source = source
-        self.lines = field_lines(text)
-
-    def fail(self, path: FieldPath, message: str) -> NoReturn:
-        line = line_of(self.lines, path)
-        where = f"{self.source}:{line}" if line is not None else self.source
-        field = format_path(path)
-        raise SceneError(f"{where}: {field}: {message}" if field else f"{where}: {message}")
-
-    def table(self, value: Any, path: FieldPath, allowed: set[str]) -> Mapping[str, Any]:
-        if not isinstance(value, dict):
-            self.fail(path, f"must be a table, got {_kind(value)}")
-        for key in value:
-            if key not in allowed:
-                self.fail(
-                    (*path, key), f"unknown key; expected one of {', '.join(sorted(allowed))}"
-                )
-        return value
+        super().__init__(source, text, SceneError)
 
     def number(
         self,
@@ -113,37 +96,13 @@ class _Checker:
             self.fail(path, f"coordinates must be finite, got {value}")
         return float(value)
 
-    def string(self, value: Any, path: FieldPath) -> str:
-        if not isinstance(value, str) or not value:
-            self.fail(path, f"must be a non-empty string, got {_kind(value)}")
-        return value
-
-
-def _kind(value: Any) -> str:
-    if isinstance(value, bool):
-        return f"boolean {str(value).lower()}"
-    if isinstance(value, (int, float)):
-        return f"number {value}"
-    if isinstance(value, str):
-        return f"string {value!r}"
-    if isinstance(value, list):
-        return f"an array of {len(value)}"
-    if isinstance(value, dict):
-        return "a table"
-    return type(value).__name__
-
 
 def parse_scene(text: str, source: str = "<scene>") -> Scene:
     """Validate scene text; `source` names it in error messages."""
     if len(text) > MAX_SCENE_BYTES:
         raise SceneError(f"{source}: {len(text)} characters; a scene is at most {MAX_SCENE_BYTES}")
-    try:
-        data = tomllib.loads(text)
-        c = _Checker(source, text)
-    except tomllib.TOMLDecodeError as exc:
-        raise SceneError(f"{source}: not valid TOML: {exc}") from None
-    except RecursionError:
-        raise SceneError(f"{source}: arrays or tables nested too deeply") from None
+    c = _Checker(source, text)
+    data = c.data
     c.table(data, (), _TOP_KEYS)
 
     head = c.table(data.get("scene", {}), ("scene",), _SCENE_KEYS)

@@ -10,31 +10,38 @@ from __future__ import annotations
 
 import json
 import os
-import tomllib
+from collections.abc import Callable
 from functools import cache
 from importlib import resources
 from pathlib import Path
 
 from stiction.drivers.catalogue.schema import Entry, Match, parse_entry
 from stiction.errors import DeviceError
+from stiction.tomlcheck import TomlReader
 
 GENERATED = "otd.json"
 BUILTIN = "devices.toml"
 USER_TABLE_ENV = "STICTION_HID_DEVICES"
 
 
-def parse_entries(devices: object, where: str, layer: str) -> tuple[Entry, ...]:
-    """Validated entries; a DeviceError if two of them claim the same match."""
+def parse_entries(
+    devices: object, where: str, layer: str, locate: Callable[[int], str] | None = None
+) -> tuple[Entry, ...]:
+    """Validated entries; a DeviceError if two of them claim the same match.
+
+    `locate(i)` says where entry i is (``file:line: device[i]`` for TOML, whose
+    lines the shared checker knows); without it, ``file: device[i]``."""
     if not isinstance(devices, list):
         raise DeviceError(f"{where}: expected [[device]] tables")
+    at = locate or (lambda i: f"{where}: device[{i}]")
     seen: dict[Match, Entry] = {}
     out = []
     for i, raw in enumerate(devices):
-        entry = parse_entry(raw, f"{where}: device {i + 1}", layer)
+        entry = parse_entry(raw, at(i), layer)
         other = seen.get(entry.match)
         if other is not None:
             raise DeviceError(
-                f"{where}: {entry.match.describe()} is listed twice "
+                f"{at(i)}: {entry.match.describe()} is listed twice "
                 f"({other.name!r} and {entry.name!r})"
             )
         seen[entry.match] = entry
@@ -43,11 +50,11 @@ def parse_entries(devices: object, where: str, layer: str) -> tuple[Entry, ...]:
 
 
 def parse_toml(text: str, where: str, layer: str) -> tuple[Entry, ...]:
-    try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise DeviceError(f"{where}: {exc}") from None
-    return parse_entries(data.get("device", []), where, layer)
+    """A TOML device table, read by the shared checker so errors carry the entry's line."""
+    r = TomlReader(where, text, DeviceError)
+    return parse_entries(
+        r.data.get("device", []), where, layer, lambda i: r.location(("device", i))
+    )
 
 
 def parse_json(text: str, where: str, layer: str) -> tuple[Entry, ...]:

@@ -1,0 +1,56 @@
+"""One rule per option: the flag, the config file and the daemon refuse a value alike."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from stiction.daemon.config import ConfigError, load_options
+from stiction.daemon.options import RULES, Options, OptionsError, problem, validate
+
+BAD = {
+    "rate": 0,
+    "clock": "wall",
+    "hwm": 0,
+    "substeps": 0,
+    "late_threshold_ms": -1.0,
+    "keepalive": -0.5,
+    "spin_ms": 9.0,
+    "realtime": 100,
+}
+
+
+def test_every_rule_has_a_bad_value_here() -> None:
+    assert set(BAD) == set(RULES)
+
+
+def test_defaults_pass() -> None:
+    assert validate(Options()) == Options()
+
+
+@pytest.mark.parametrize("name", sorted(BAD))
+def test_validate_names_the_option_and_the_rule(name: str) -> None:
+    opts = Options()
+    setattr(opts, name, BAD[name])
+    with pytest.raises(OptionsError) as caught:
+        validate(opts)
+    wrong = problem(name, BAD[name])
+    assert wrong is not None and wrong.startswith(RULES[name][1])
+    assert str(caught.value) == f"{name} {wrong}"
+
+
+@pytest.mark.parametrize("name", ["rate", "clock", "hwm", "keepalive", "spin_ms", "realtime"])
+def test_config_file_gives_the_same_words(name: str, tmp_path: Path) -> None:
+    cfg = tmp_path / "c.toml"
+    value = BAD[name]
+    cfg.write_text(f"[daemon]\n{name} = {value!r}\n".replace("'", '"'))
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value) == f"{cfg}:2: daemon.{name}: {problem(name, value)}"
+
+
+def test_booleans_are_not_numbers() -> None:
+    assert problem("realtime", True) is not None
+    assert problem("hwm", True) is not None
+    assert problem("spin_ms", 0) is None
