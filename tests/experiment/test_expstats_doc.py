@@ -1,4 +1,4 @@
-"""The figures docs/experiments-analysis.md derives from the paper's A, B and JND are right."""
+"""The figures docs/experiments.md ("Analysis and power") derives from the paper's A, B and JND are right."""
 
 from __future__ import annotations
 
@@ -6,7 +6,7 @@ from pathlib import Path
 
 from stiction.experiment import psychometric as ps
 
-PAGE = Path(__file__).resolve().parents[2] / "docs" / "experiments-analysis.md"
+PAGE = Path(__file__).resolve().parents[2] / "docs" / "experiments.md"
 # As printed in the paper (User study 1, Results).
 PAPER = {"string": (0.068, 4.9, 0.29), "no string": (0.25, 2.1, 0.77)}
 
