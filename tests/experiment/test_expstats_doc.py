@@ -1,4 +1,4 @@
-"""The figures docs/experiments.md ("Analysis and power") derives from the paper's A, B and JND are right."""
+"""The figures docs/experiments.md derives from the paper's A, B and JND are right."""
 
 from __future__ import annotations
 
