@@ -25,6 +25,8 @@ from typing import IO, Any
 
 import pytest
 
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "clients"))
+
 from stiction.clients import control
 from stiction.drivers.fake.feed import format_state
 from stiction.drivers.fake.strokes import DT, PenState, _min_jerk
@@ -42,10 +44,8 @@ DAEMON = [
 ]
 
 pytestmark = pytest.mark.browser
+pytest_plugins = ["clients_fixtures"]  # the headless Chromium `browser` of the client tests
 
-CHROMIUM = "/usr/bin/chromium"
-CHROMIUM_ARGS = ["--no-sandbox", "--disable-gpu", "--disable-background-networking",
-                 "--disable-component-update", "--disable-sync", "--no-first-run"]  # fmt: skip
 PARK = (0.01, 0.01)
 WAIT_MS = 30_000
 
@@ -122,18 +122,6 @@ class Runner:
         if self.task is not None:
             self.loop.call_soon_threadsafe(self.task.cancel)
         self.thread.join(30)
-
-
-@pytest.fixture(scope="module")
-def browser() -> Iterator[Any]:
-    if not Path(CHROMIUM).exists():
-        pytest.fail(f"{CHROMIUM} not found: install Debian's chromium (make sysdeps)")
-    from playwright.sync_api import sync_playwright
-
-    with sync_playwright() as p:
-        b = p.chromium.launch(executable_path=CHROMIUM, args=CHROMIUM_ARGS)
-        yield b
-        b.close()
 
 
 @contextlib.contextmanager
