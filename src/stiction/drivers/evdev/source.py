@@ -24,10 +24,11 @@ def slug(name: str) -> str:
 
 def frame_samples(units: SurfaceUnits, frame: Frame) -> Iterator[PenSample]:
     t = frame.time
+    sample = units.sample
     for c in frame.ended:
-        yield units.sample(c, t)
+        yield sample(c, t)
     for c in frame.contacts:
-        yield units.sample(c, t)
+        yield sample(c, t)
 
 
 def kind_of(desc: DeviceDescription) -> str:
