@@ -11,8 +11,8 @@ does for Wacom-style tilt.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 from evdev import ecodes
@@ -74,7 +74,7 @@ class SurfaceUnits:
         self._tilt_x = _tilt_scale(desc.axes.get(ecodes.ABS_TILT_X))
         self._tilt_y = _tilt_scale(desc.axes.get(ecodes.ABS_TILT_Y))
         # the closure shadows the method below: no bound-method call per contact
-        self.sample = _sample_function(self)  # type: ignore[method-assign]
+        self.sample = _sample_function(self)  # type: ignore[method-assign,assignment]
 
     @property
     def surface_size(self) -> tuple[float, float] | None:
@@ -165,8 +165,8 @@ def _sample_function(units: SurfaceUnits) -> Callable[[Contact, float], PenSampl
         s.in_range = in_range
         s.contact = cid
         if p is not None and has_p:
-            p = (p - p_off) * p_scale
-            s.pressure = 0.0 if p < 0.0 else 1.0 if p > 1.0 else p
+            pf = (p - p_off) * p_scale
+            s.pressure = 0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf
         else:
             s.pressure = None
         s.tool = tool
