@@ -15,8 +15,9 @@ evdev's C reader does the same unpacking):
 - stiction: `FrameAssembler.feed_many()` on the tuples (the live reader's
   path: it reads the node's bytes itself), which also keeps undo state for
   SYN_DROPPED, checks ranges, drops palms and ends contacts;
-- stiction, samples: the same plus a PenSample in surface metres per
-  contact (what the daemon receives).
+- stiction, samples: the same plus `frame_samples()` per frame, a PenSample
+  in surface metres per contact and per ended contact (what the daemon
+  receives: DeviceSource.samples() does exactly this).
 
 For transparency the same comparison is also made from ready-made
 InputEvent objects (both paths then skip the wrapping; stiction unpacks
@@ -118,6 +119,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     from stiction.drivers.evdev import sizes
     from stiction.drivers.evdev.frames import FrameAssembler
     from stiction.drivers.evdev.recording import load
+    from stiction.drivers.evdev.source import frame_samples
     from stiction.drivers.evdev.units import SurfaceUnits
 
     rec = load(path)
@@ -137,14 +139,11 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         return asm.feed_many([(e.sec, e.usec, e.type, e.code, e.value) for e in events])
 
     def ours_samples() -> int:
+        # the daemon's path: DeviceSource.samples() per read() batch
         asm = FrameAssembler(desc)
-        sample = units.sample
         n = 0
         for f in asm.feed_many(list(INPUT_EVENT.iter_unpack(data))):
-            t = f.time
-            for c in f.contacts:
-                sample(c, t)
-                n += 1
+            n += len(frame_samples(units, f))
         return n
 
     def naive() -> list[Any]:

@@ -51,6 +51,8 @@ ABS_MT_PRESSURE = ecodes.ABS_MT_PRESSURE
 ABS_MT_DISTANCE = ecodes.ABS_MT_DISTANCE
 ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
+_PEN = Tool.PEN  # a module global reads faster than the enum's class attribute
+_FINGER = Tool.FINGER
 _tnew = tuple.__new__  # NamedTuple's own __new__ is a Python function: 5x slower
 MT_TOOL_PALM = 2  # kernel: a palm is not a touch; a finger turning palm has lifted
 ABS_X = ecodes.ABS_X
@@ -221,8 +223,113 @@ class FrameAssembler:
         (tests/evdev/test_evdev_fast_paths.py).
         """
         if self.multitouch:
-            return self.feed_many_general(events)
+            return self._feed_mt(events)
         return self._feed_single(events)
+
+    def _feed_mt(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+        """feed_many for a multi-touch device: axes, EV_MSC and SYN_REPORT inline.
+
+        feed_many_general's multi-touch branch with the current slot, its
+        validity and the "slot already saved for undo" flag in locals; keys,
+        SYN_DROPPED and the dropped stretch go one event at a time through
+        feed_many_general, with the locals handed over around the call.
+        """
+        out: list[Frame] = []
+        stats = self._counts
+        ranges = self._ranges
+        slots = self._slots
+        dirty = self._dirty
+        undo_slots = self._undo_slots
+        undo_abs = self._undo_abs
+        num_slots = self.num_slots
+        general = self.feed_many_general
+        commit = self._commit
+        set_slot_value = self._set_slot_value
+        n = self._n_pending
+        cur = self._slot
+        slot_ok = self._slot_ok
+        slot = slots[cur] if slot_ok else None
+        saved = False  # slot `cur` is in `dirty` (its undo state is kept)
+        dropping = self._dropping
+        for ev in events:
+            ev_type = ev[2]
+            if dropping:
+                pass  # through the general path below
+            elif ev_type == 3:  # EV_ABS
+                n += 1
+                code = ev[3]
+                if code < ABS_MT_SLOT:
+                    # the legacy single-touch axes of a multi-touch device: ignored
+                    if code not in ranges:
+                        stats["unknown_code"] += 1
+                    continue
+                if code == ABS_MT_SLOT:
+                    cur = ev[4]
+                    slot_ok = 0 <= cur < num_slots
+                    if slot_ok:
+                        slot = slots[cur]
+                        saved = cur in dirty
+                    else:
+                        stats["slot_out_of_range"] += 1
+                    continue
+                if not slot_ok:
+                    stats["slot_out_of_range"] += 1
+                    continue
+                try:
+                    lo, hi = ranges[code]
+                except KeyError:
+                    stats["unknown_code"] += 1
+                    continue
+                if not saved:
+                    saved = True
+                    if cur not in dirty:
+                        dirty.add(cur)
+                        undo_slots[cur] = slot.state()  # type: ignore[union-attr]
+                value = ev[4]
+                if code == ABS_MT_POSITION_X:
+                    slot.x = value  # type: ignore[union-attr]
+                elif code == ABS_MT_POSITION_Y:
+                    slot.y = value  # type: ignore[union-attr]
+                elif code == ABS_MT_PRESSURE:
+                    slot.pressure = value  # type: ignore[union-attr]
+                else:
+                    set_slot_value(slot, code, value)  # type: ignore[arg-type]
+                    continue
+                if value < lo or value > hi:
+                    stats["value_out_of_range"] += 1
+                continue
+            elif ev_type == 0:  # EV_SYN
+                if ev[3] == 0:  # SYN_REPORT
+                    self._slot = cur
+                    self._slot_ok = slot_ok
+                    out.append(commit(ev[0], ev[1]))  # clears `dirty`
+                    saved = False
+                    n = 0
+                    if undo_abs:
+                        undo_abs.clear()
+                    if undo_slots:
+                        undo_slots.clear()
+                    self._keys_ok = None
+                    self._slot_start = (cur, slot_ok)
+                    self._seen_start = self._seen_position
+                    continue
+            elif ev_type != 1:  # EV_KEY goes the general way
+                n += 1  # EV_MSC (serials, scan codes) and others carry no contact state
+                continue
+            self._n_pending = n
+            self._slot = cur
+            self._slot_ok = slot_ok
+            out.extend(general((ev,)))
+            n = self._n_pending
+            cur = self._slot
+            slot_ok = self._slot_ok
+            slot = slots[cur] if slot_ok else None
+            saved = False
+            dropping = self._dropping
+        self._n_pending = n
+        self._slot = cur
+        self._slot_ok = slot_ok
+        return out
 
     def _feed_single(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
         """feed_many for a device without slots: axes, EV_MSC and SYN_REPORT inline.
@@ -762,11 +869,62 @@ class FrameAssembler:
             if not dirty:
                 contacts = last
             elif len(last) == 1:
-                c0 = last[0]
-                contacts = (self._contact_mt(c0[1]),) if c0[1] in dirty else last
+                i = last[0][1]
+                if i in dirty:
+                    s = self._slots[i]
+                    tid = s.tid
+                    contacts = (
+                        _tnew(
+                            Contact,
+                            (
+                                tid,
+                                i,
+                                tid,
+                                _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                s.x,
+                                s.y,
+                                s.pressure if self._has_mt_pressure else None,
+                                s.distance == 0,
+                                True,
+                                None,
+                                None,
+                                self._button_state,
+                            ),
+                        ),
+                    )
+                else:
+                    contacts = last
             else:
-                make = self._contact_mt
-                contacts = tuple([make(c[1]) if c[1] in dirty else c for c in last])
+                # _contact_mt() inline: a method call per moved contact was a third of it
+                slots = self._slots
+                has_p = self._has_mt_pressure
+                buttons = self._button_state
+                tnew = _tnew
+                made = []
+                for c in last:
+                    i = c[1]
+                    if i in dirty:
+                        s = slots[i]
+                        tid = s.tid
+                        c = tnew(
+                            Contact,
+                            (
+                                tid,
+                                i,
+                                tid,
+                                _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                s.x,
+                                s.y,
+                                s.pressure if has_p else None,
+                                s.distance == 0,
+                                True,
+                                None,
+                                None,
+                                buttons,
+                            ),
+                        )
+                    made.append(c)
+                contacts = tuple(made)
         dirty.clear()
         self._last = contacts
         return _tnew(Frame, (sec, usec, contacts, ended))
