@@ -1,13 +1,14 @@
 """The fast feed loops against FrameAssembler.feed_many_general: same frames, same counters.
 
-feed_many sends a device without slots through `_feed_single`, a loop that
-handles axes, EV_MSC and SYN_REPORT itself and hands everything else to
-feed_many_general one event at a time. Here both paths eat the same events --
+feed_many sends a device without slots through `_feed_single`, a loop
+generated for the device (single_code.py), and a multi-touch device through
+`_feed_mt`; both handle axes, EV_MSC and SYN_REPORT themselves and hand
+everything else to feed_many_general one event at a time. Here both paths eat the same events --
 every recording, the recordings with SYN_DROPPED put into frames, split into
 read()-sized batches at arbitrary points, with and without a live device's
 state query, and random streams from hypothesis -- and must give equal frames,
 equal counters (all of them) and an equal final `finish()`. The last test
-breaks the fast path on purpose and checks that the comparison notices.
+breaks the generated loop on purpose and checks that the comparison notices.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from evdev import ecodes as e
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stiction.drivers.evdev import single_code
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, FrameAssembler
 from stiction.drivers.evdev.recording import load
@@ -66,11 +68,28 @@ ODD_PEN = DeviceDescription(
     keys=frozenset({e.BTN_TOOL_PEN, e.BTN_STYLUS2}),
     axes={e.ABS_X: AbsAxis(0, 0, 4000, resolution=40)},
 )
-DESCS = {"pen": PEN, "bare-pen": BARE_PEN, "odd-pen": ODD_PEN}
+TOUCHPAD = DeviceDescription(
+    name="Test Touchpad",
+    properties=frozenset({e.INPUT_PROP_POINTER}),
+    keys=frozenset({e.BTN_LEFT, e.BTN_RIGHT, e.BTN_TOOL_FINGER, e.BTN_TOUCH}),
+    axes={
+        e.ABS_X: AbsAxis(0, 0, 1000, resolution=10),
+        e.ABS_Y: AbsAxis(0, 0, 500, resolution=10),
+        e.ABS_MT_SLOT: AbsAxis(0, 0, 2),
+        e.ABS_MT_POSITION_X: AbsAxis(0, 0, 1000, resolution=10),
+        e.ABS_MT_POSITION_Y: AbsAxis(0, 0, 500, resolution=10),
+        e.ABS_MT_TRACKING_ID: AbsAxis(0, 0, 65535),
+        e.ABS_MT_PRESSURE: AbsAxis(0, 0, 255),
+        e.ABS_MT_TOOL_TYPE: AbsAxis(0, 0, 2),
+        e.ABS_MT_DISTANCE: AbsAxis(0, 0, 5),
+    },
+)
+DESCS = {"pen": PEN, "bare-pen": BARE_PEN, "odd-pen": ODD_PEN, "touchpad": TOUCHPAD}
 
 STATE = DeviceState(
     keys=frozenset({e.BTN_TOOL_PEN, e.BTN_TOUCH}),
-    axes={e.ABS_X: 700, e.ABS_Y: 900, e.ABS_PRESSURE: 300},
+    axes={e.ABS_X: 700, e.ABS_Y: 900, e.ABS_PRESSURE: 300, e.ABS_MT_SLOT: 1},
+    slots={e.ABS_MT_TRACKING_ID: [5, 6, -1], e.ABS_MT_POSITION_X: [10, 20, 30]},
 )
 
 
@@ -80,6 +99,7 @@ def _run(
     frames: list[tuple[object, ...]] = []
     for b in batches:
         frames.extend(tuple(f) for f in feed(b))  # type: ignore[arg-type]
+        frames.append(("after batch", asm.needs_resync, asm._dropping))
     stats = dict(asm.stats)
     end = asm.finish(99, 0)
     return frames, stats, tuple(end) if end is not None else None
@@ -139,7 +159,18 @@ _codes = st.sampled_from(
         (e.EV_ABS, e.ABS_TILT_Y),
         (e.EV_ABS, e.ABS_DISTANCE),
         (e.EV_ABS, e.ABS_MT_SLOT),
+        (e.EV_ABS, e.ABS_MT_SLOT),
+        (e.EV_ABS, e.ABS_MT_TRACKING_ID),
+        (e.EV_ABS, e.ABS_MT_TRACKING_ID),
+        (e.EV_ABS, e.ABS_MT_POSITION_X),
+        (e.EV_ABS, e.ABS_MT_POSITION_Y),
+        (e.EV_ABS, e.ABS_MT_PRESSURE),
+        (e.EV_ABS, e.ABS_MT_TOOL_TYPE),
+        (e.EV_ABS, e.ABS_MT_DISTANCE),
+        (e.EV_ABS, e.ABS_MT_TOUCH_MAJOR),
         (e.EV_KEY, e.BTN_TOUCH),
+        (e.EV_KEY, e.BTN_TOOL_FINGER),
+        (e.EV_KEY, e.BTN_LEFT),
         (e.EV_KEY, e.BTN_TOOL_PEN),
         (e.EV_KEY, e.BTN_TOOL_RUBBER),
         (e.EV_KEY, e.BTN_STYLUS),
@@ -173,18 +204,29 @@ def test_fast_path_equals_general_path_on_random_streams(
     same_both_ways(desc, stream, cuts, live)
 
 
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [
+        ("a1 = value\n", "pass\n"),  # Y never changes
+        ("abs_[1] = a1\n", "abs_[1] = c1\n"),  # a pending Y lost at a key event
+    ],
+    ids=["axis-dropped", "handover-loses-pending"],
+)
 def test_the_comparison_catches_a_broken_fast_path(
-    evdev_data: Path, monkeypatch: pytest.MonkeyPatch
+    evdev_data: Path, monkeypatch: pytest.MonkeyPatch, old: str, new: str
 ) -> None:
-    """Axis values lost where the fast loop hands a frame to the general path."""
+    """The generated loop, broken on purpose, must disagree with the general path."""
     rec = load(evdev_data / "wacom-intuos4-6x9.desc")
     events = _with_drops(list(rec.events))
     same_both_ways(rec.description, events, [])
+    real = single_code.source
 
-    def lose(self: FrameAssembler, pend: dict[int, int], seen: bool) -> bool:
-        pend.clear()
-        return seen
+    def broken(asm: FrameAssembler) -> str:
+        text = real(asm)
+        assert old in text
+        return text.replace(old, new)
 
-    monkeypatch.setattr(FrameAssembler, "_flush_pending", lose)
+    monkeypatch.setattr(single_code, "source", broken)
+    monkeypatch.setattr(single_code, "_FACTORIES", {})
     with pytest.raises(AssertionError):
         same_both_ways(rec.description, events, [])

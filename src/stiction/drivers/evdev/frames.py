@@ -196,6 +196,8 @@ class FrameAssembler:
         self._default_tool = Tool.PEN if desc.kind == "pen" else Tool.FINGER
         self._slot_start = (self._slot, self._slot_ok)
         self._seen_start = False
+        self._feed_single: Callable[[Iterable[tuple[int, int, int, int, int]]], list[Frame]] | None
+        self._feed_single = None
 
     @property
     def stats(self) -> Counter[str]:
@@ -218,12 +220,16 @@ class FrameAssembler:
         """Consume a batch (a read() worth, or a whole recording); the frames it completes.
 
         A device without slots (most pen tablets) takes `_feed_single`, a loop
-        that handles only the common events itself; multi-touch devices take
-        `feed_many_general`. Both give the same frames and counters
+        written for the device (single_code.py, made at the first batch);
+        multi-touch devices take `_feed_mt`. Both give the same frames and counters
         (tests/evdev/test_evdev_fast_paths.py).
         """
         if self.multitouch:
             return self._feed_mt(events)
+        if self._feed_single is None:
+            from stiction.drivers.evdev.single_code import compile_feed
+
+            self._feed_single = compile_feed(self)
         return self._feed_single(events)
 
     def _feed_mt(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
@@ -330,145 +336,6 @@ class FrameAssembler:
         self._slot = cur
         self._slot_ok = slot_ok
         return out
-
-    def _feed_single(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
-        """feed_many for a device without slots: axes, EV_MSC and SYN_REPORT inline.
-
-        Everything else (keys, SYN_DROPPED and the dropped stretch after it,
-        other SYN codes) goes one event at a time through feed_many_general,
-        which keeps its state in the same containers; the few scalars this
-        loop keeps in locals are handed over around that call.
-        """
-        out: list[Frame] = []
-        append = out.append
-        stats = self._counts
-        ranges = self._ranges
-        abs_ = self._abs
-        undo = self._undo_abs
-        general = self.feed_many_general
-        flush = self._flush_pending
-        # Axis values of the frame in progress, applied at SYN_REPORT: one dict
-        # store per event instead of the undo bookkeeping (the frame is either
-        # complete or never applied); handed to the general path mid-frame.
-        pend: dict[int, int] = {}
-        n = self._n_pending
-        seen = self._seen_position
-        dropping = self._dropping
-        last = self._last
-        made = 0  # frames made here (feed_many_general counts its own)
-        tnew = _tnew
-        has_tool_keys = self._has_tool_keys
-        default_tool = self._default_tool
-        has_pressure = self._has_pressure
-        has_touch_key = self._has_touch_key
-        p_min = self._pressure_min
-        has_x = ABS_X in abs_
-        has_y = ABS_Y in abs_
-        has_tilt = self._has_tilt
-        self.needs_resync = False  # set only by SYN_DROPPED, which feed_many_general takes
-        for ev in events:
-            ev_type = ev[2]
-            if dropping:
-                pass  # through the general path below
-            elif ev_type == 3:  # EV_ABS
-                n += 1
-                code = ev[3]
-                try:
-                    lo, hi = ranges[code]
-                except KeyError:
-                    stats["unknown_code"] += 1
-                    continue
-                value = pend[code] = ev[4]
-                if value < lo or value > hi:
-                    stats["value_out_of_range"] += 1
-                continue
-            elif ev_type == 0:  # EV_SYN
-                if ev[3] == 0:  # SYN_REPORT: _commit() and _current_single(), inline
-                    made += 1
-                    if pend:
-                        abs_.update(pend)
-                        if not seen:
-                            seen = ABS_X in pend or ABS_Y in pend
-                        pend.clear()
-                    if n or self._dirty_all or self._keys_ok is not None:
-                        self._dirty_all = False
-                        if self._keys_changed:
-                            self._key_state()
-                        tool = self._key_tool if has_tool_keys else default_tool if seen else None
-                        if tool is None:
-                            append(
-                                tnew(Frame, (ev[0], ev[1], (), (_ended(last[0]),) if last else ()))
-                            )
-                            last = ()
-                        else:
-                            if has_pressure:
-                                pressure = abs_[ABS_PRESSURE]
-                                tip = self._key_touch if has_touch_key else pressure > p_min
-                            else:
-                                pressure = None
-                                tip = self._key_touch if has_touch_key else False
-                            last = (
-                                tnew(
-                                    Contact,
-                                    (
-                                        0,
-                                        None,
-                                        None,
-                                        tool,
-                                        abs_[ABS_X] if has_x else 0,
-                                        abs_[ABS_Y] if has_y else 0,
-                                        pressure,
-                                        tip,
-                                        True,
-                                        abs_[ABS_TILT_X] if has_tilt else None,
-                                        abs_[ABS_TILT_Y] if has_tilt else None,
-                                        self._button_state,
-                                    ),
-                                ),
-                            )
-                            append(tnew(Frame, (ev[0], ev[1], last, ())))
-                    else:
-                        append(tnew(Frame, (ev[0], ev[1], last, ())))
-                    n = 0
-                    if undo:
-                        undo.clear()
-                    self._keys_ok = None
-                    self._seen_start = seen
-                    continue
-            elif ev_type != 1:  # EV_KEY goes the general way
-                n += 1  # EV_MSC (serials, scan codes) and others carry no contact state
-                continue
-            if pend:
-                seen = flush(pend, seen)
-            self._n_pending = n
-            self._seen_position = seen
-            self._last = last
-            out.extend(general((ev,)))
-            n = self._n_pending
-            seen = self._seen_position
-            last = self._last
-            dropping = self._dropping
-        if pend:
-            seen = flush(pend, seen)
-        self._n_pending = n
-        self._seen_position = seen
-        self._last = last
-        self._frames += made
-        return out
-
-    def _flush_pending(self, pend: dict[int, int], seen: bool) -> bool:
-        """Axis values _feed_single holds back until SYN_REPORT, put into the state
-        the way feed_many_general would have (undo first); the new `seen_position`."""
-        abs_ = self._abs
-        undo = self._undo_abs
-        for code, value in pend.items():
-            if code not in undo:
-                undo[code] = abs_[code]
-            abs_[code] = value
-        if ABS_X in pend or ABS_Y in pend:
-            seen = True
-        pend.clear()
-        return seen
 
     def feed_many_general(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
         """feed_many for every device: the reference the fast loop is tested against.
