@@ -229,7 +229,8 @@ class FrameAssembler:
         if self._feed_single is None:
             from stiction.drivers.evdev.single_code import compile_feed
 
-            self._feed_single = compile_feed(self)
+            names = {"Frame": Frame, "Contact": Contact, "ended": _ended}
+            self._feed_single = compile_feed(self, names)
         return self._feed_single(events)
 
     def _feed_mt(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:

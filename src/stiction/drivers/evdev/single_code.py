@@ -22,14 +22,14 @@ from __future__ import annotations
 
 import textwrap
 from collections.abc import Callable, Iterable
-from typing import TYPE_CHECKING
+from typing import Any
 
 from evdev import ecodes
 
-if TYPE_CHECKING:
-    from stiction.drivers.evdev.frames import Frame, FrameAssembler
-
-Feed = Callable[[Iterable[tuple[int, int, int, int, int]]], list["Frame"]]
+# frames.py imports this module, so nothing here imports frames.py: the
+# assembler (`asm`) and the names the loop needs come in as arguments.
+FrameAssembler = Any
+Feed = Callable[[Iterable[tuple[int, int, int, int, int]]], list[Any]]
 
 #: the order of the axis tests: the most frequent axes of the recordings first
 _ORDER = (
@@ -202,19 +202,17 @@ def _key(asm: FrameAssembler) -> tuple[object, ...]:
     )
 
 
-def compile_feed(asm: FrameAssembler) -> Feed:
-    """The generated loop, bound to `asm`; compiled once per kind of device."""
+def compile_feed(asm: FrameAssembler, names: dict[str, object]) -> Feed:
+    """The generated loop, bound to `asm`; compiled once per kind of device.
+
+    `names`: Frame, Contact and ended (frames._ended), from frames.py."""
     key = _key(asm)
     make = _FACTORIES.get(key)
     if make is None:
-        from stiction.drivers.evdev import frames
-
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
-            "Frame": frames.Frame,
-            "Contact": frames.Contact,
-            "ended": frames._ended,
             "default_tool": asm._default_tool,
+            **names,
         }
         text = "def make(asm):\n" + textwrap.indent(source(asm), "    ") + "    return feed\n"
         code = compile(text, f"<evdev feed: {asm.desc.name}>", "exec")
