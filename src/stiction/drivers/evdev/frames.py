@@ -255,7 +255,8 @@ class FrameAssembler:
         n = self._n_pending
         cur = self._slot
         slot_ok = self._slot_ok
-        slot = slots[cur] if slot_ok else None
+        spare = _Slot()  # stands in while the slot number is out of range (never written)
+        slot = slots[cur] if slot_ok else spare
         saved = False  # slot `cur` is in `dirty` (its undo state is kept)
         dropping = self._dropping
         for ev in events:
@@ -291,16 +292,24 @@ class FrameAssembler:
                     saved = True
                     if cur not in dirty:
                         dirty.add(cur)
-                        undo_slots[cur] = slot.state()  # type: ignore[union-attr]
+                        # slot.state(), inline
+                        undo_slots[cur] = (
+                            slot.tid,
+                            slot.x,
+                            slot.y,
+                            slot.pressure,
+                            slot.distance,
+                            slot.tool_type,
+                        )
                 value = ev[4]
                 if code == ABS_MT_POSITION_X:
-                    slot.x = value  # type: ignore[union-attr]
+                    slot.x = value
                 elif code == ABS_MT_POSITION_Y:
-                    slot.y = value  # type: ignore[union-attr]
+                    slot.y = value
                 elif code == ABS_MT_PRESSURE:
-                    slot.pressure = value  # type: ignore[union-attr]
+                    slot.pressure = value
                 else:
-                    set_slot_value(slot, code, value)  # type: ignore[arg-type]
+                    set_slot_value(slot, code, value)
                     continue
                 if value < lo or value > hi:
                     stats["value_out_of_range"] += 1
@@ -330,7 +339,7 @@ class FrameAssembler:
             n = self._n_pending
             cur = self._slot
             slot_ok = self._slot_ok
-            slot = slots[cur] if slot_ok else None
+            slot = slots[cur] if slot_ok else spare
             saved = False
             dropping = self._dropping
         self._n_pending = n
