@@ -259,6 +259,11 @@ class FrameAssembler:
         slot = slots[cur] if slot_ok else spare
         saved = False  # slot `cur` is in `dirty` (its undo state is kept)
         dropping = self._dropping
+        last = self._last
+        made = 0  # frames made inline (_commit counts its own)
+        clear_resync = False  # a frame was made: needs_resync is False from here
+        has_p = self._has_mt_pressure
+        tnew = _tnew
         for ev in events:
             ev_type = ev[2]
             if dropping:
@@ -316,9 +321,47 @@ class FrameAssembler:
                 continue
             elif ev_type == 0:  # EV_SYN
                 if ev[3] == 0:  # SYN_REPORT
-                    self._slot = cur
-                    self._slot_ok = slot_ok
-                    out.append(commit(ev[0], ev[1]))  # clears `dirty`
+                    if self._tid_changed or self._dirty_all or self._keys_changed:
+                        # contacts may begin or end, or all change: _commit() does it
+                        self._slot = cur
+                        self._slot_ok = slot_ok
+                        self._last = last
+                        out.append(commit(ev[0], ev[1]))  # clears `dirty`
+                        last = self._last
+                        clear_resync = False
+                    else:
+                        # the common frame, _commit()'s last branch inline: the
+                        # same contacts, those of moved slots rebuilt
+                        made += 1
+                        clear_resync = True
+                        if dirty:
+                            built = []
+                            for c in last:
+                                i = c[1]
+                                if i in dirty:
+                                    s = slots[i]
+                                    tid = s.tid
+                                    c = tnew(
+                                        Contact,
+                                        (
+                                            tid,
+                                            i,
+                                            tid,
+                                            _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                            s.x,
+                                            s.y,
+                                            s.pressure if has_p else None,
+                                            s.distance == 0,
+                                            True,
+                                            None,
+                                            None,
+                                            self._button_state,
+                                        ),
+                                    )
+                                built.append(c)
+                            last = tuple(built)
+                            dirty.clear()
+                        out.append(tnew(Frame, (ev[0], ev[1], last, ())))
                     saved = False
                     n = 0
                     if undo_abs:
@@ -335,7 +378,12 @@ class FrameAssembler:
             self._n_pending = n
             self._slot = cur
             self._slot_ok = slot_ok
+            self._last = last
+            if clear_resync:
+                self.needs_resync = False
+                clear_resync = False
             out.extend(general((ev,)))
+            last = self._last
             n = self._n_pending
             cur = self._slot
             slot_ok = self._slot_ok
@@ -345,6 +393,10 @@ class FrameAssembler:
         self._n_pending = n
         self._slot = cur
         self._slot_ok = slot_ok
+        self._last = last
+        if clear_resync:
+            self.needs_resync = False
+        self._frames += made
         return out
 
     def feed_many_general(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
