@@ -106,12 +106,20 @@ def _run(
 
 
 def same_both_ways(
-    desc: DeviceDescription, events: list[Event], cuts: list[int], live: bool = False
+    desc: DeviceDescription,
+    events: list[Event],
+    cuts: list[int],
+    live: bool = False,
+    short_batch: int = 0,
 ) -> int:
-    """Feeds the events in batches cut at `cuts` to both paths; the number of frames."""
+    """Feeds the events in batches cut at `cuts` to both paths; the number of frames.
+
+    short_batch=0: every batch through the fast loops, however short; else
+    feed_many's own choice, short batches through the general loop."""
     bounds = [0, *sorted(c for c in cuts if 0 < c < len(events)), len(events)]
     batches = [events[a:b] for a, b in itertools.pairwise(bounds)]
     fast, general = FrameAssembler(desc), FrameAssembler(desc)
+    fast.short_batch = short_batch
     if live:
         fast.query_state = general.query_state = lambda: STATE
     got = _run(fast, fast.feed_many, batches)  # type: ignore[arg-type]
@@ -148,6 +156,9 @@ def test_fast_path_equals_general_path_on_recordings(
     assert same_both_ways(rec.description, events, [], live) > 0
     assert same_both_ways(rec.description, events, list(range(3, len(events), 7)), live) > 0
     assert same_both_ways(rec.description, _with_drops(events), list(range(5, 4000, 11)), live)
+    # batches of every length, so that feed_many switches between the loops
+    cuts = [sum(range(k)) for k in range(1, 100)]
+    assert same_both_ways(rec.description, _with_drops(events), cuts, live, short_batch=16)
 
 
 _codes = st.sampled_from(

@@ -25,6 +25,7 @@ of types and codes the device does not have.
 
 from __future__ import annotations
 
+import functools
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -53,6 +54,7 @@ ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
 _PEN = Tool.PEN  # a module global reads faster than the enum's class attribute
 _FINGER = Tool.FINGER
+_SEQUENCES = (list, tuple)  # made once: `list | tuple` builds a union at every call
 _tnew = tuple.__new__  # NamedTuple's own __new__ is a Python function: 5x slower
 MT_TOOL_PALM = 2  # kernel: a palm is not a touch; a finger turning palm has lifted
 ABS_X = ecodes.ABS_X
@@ -175,6 +177,8 @@ class FrameAssembler:
         self._ranges = {code: (a.minimum, a.maximum) for code, a in desc.axes.items()}
         self._valid_keys = desc.keys
         self._slots = [_Slot() for _ in range(self.num_slots)]
+        #: _feed_mt's stand-in while the slot number is out of range (never written)
+        self._spare_slot = _Slot()
         slot_axis = desc.axes.get(ABS_MT_SLOT)
         self._slot = slot_axis.value if slot_axis is not None else 0
         self._slot_ok = 0 <= self._slot < self.num_slots
@@ -198,6 +202,15 @@ class FrameAssembler:
         self._seen_start = False
         self._feed_single: Callable[[Iterable[tuple[int, int, int, int, int]]], list[Frame]] | None
         self._feed_single = None
+        #: batches shorter than this (events) take feed_many_general on a single-tool
+        #: device: three frames of a pen, where the generated loop starts to pay
+        self.short_batch = 16
+        # feed_many without its own call layer (a live read is a frame or two, where
+        # one more Python call per batch shows): the loop it would pick, bound here
+        if self.multitouch:
+            self.feed_many = self._feed_mt  # type: ignore[method-assign]
+        else:
+            self.feed_many = functools.partial(self.feed_many_general, fast=True)  # type: ignore[method-assign]
 
     @property
     def stats(self) -> Counter[str]:
@@ -220,18 +233,26 @@ class FrameAssembler:
         """Consume a batch (a read() worth, or a whole recording); the frames it completes.
 
         A device without slots (most pen tablets) takes `_feed_single`, a loop
-        written for the device (single_code.py, made at the first batch);
-        multi-touch devices take `_feed_mt`. Both give the same frames and counters
-        (tests/evdev/test_evdev_fast_paths.py).
+        written for the device (single_code.py, made at the first batch) --
+        unless the batch is shorter than `short_batch` events: that loop
+        moves its state into locals and back at every call (about 0.7 us),
+        more than it saves on a frame or two, the usual read() of a live
+        device. Multi-touch devices take `_feed_mt`. All give the same frames
+        and counters (tests/evdev/test_evdev_fast_paths.py). __init__ binds
+        the choice to the instance's `feed_many`; this method makes the same
+        choice for a call through the class.
         """
         if self.multitouch:
             return self._feed_mt(events)
+        return self.feed_many_general(events, True)
+
+    def _compile_single(self) -> Callable[[Iterable[tuple[int, int, int, int, int]]], list[Frame]]:
         if self._feed_single is None:
             from stiction.drivers.evdev.single_code import compile_feed
 
             names = {"Frame": Frame, "Contact": Contact, "ended": _ended}
             self._feed_single = compile_feed(self, names)
-        return self._feed_single(events)
+        return self._feed_single
 
     def _feed_mt(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
         """feed_many for a multi-touch device: axes, EV_MSC and SYN_REPORT inline.
@@ -249,13 +270,10 @@ class FrameAssembler:
         undo_slots = self._undo_slots
         undo_abs = self._undo_abs
         num_slots = self.num_slots
-        general = self.feed_many_general
-        commit = self._commit
-        set_slot_value = self._set_slot_value
         n = self._n_pending
         cur = self._slot
         slot_ok = self._slot_ok
-        spare = _Slot()  # stands in while the slot number is out of range (never written)
+        spare = self._spare_slot
         slot = slots[cur] if slot_ok else spare
         saved = False  # slot `cur` is in `dirty` (its undo state is kept)
         dropping = self._dropping
@@ -314,7 +332,7 @@ class FrameAssembler:
                 elif code == ABS_MT_PRESSURE:
                     slot.pressure = value
                 else:
-                    set_slot_value(slot, code, value)
+                    self._set_slot_value(slot, code, value)
                     continue
                 if value < lo or value > hi:
                     stats["value_out_of_range"] += 1
@@ -326,7 +344,7 @@ class FrameAssembler:
                         self._slot = cur
                         self._slot_ok = slot_ok
                         self._last = last
-                        out.append(commit(ev[0], ev[1]))  # clears `dirty`
+                        out.append(self._commit(ev[0], ev[1]))  # clears `dirty`
                         last = self._last
                         clear_resync = False
                     else:
@@ -382,7 +400,7 @@ class FrameAssembler:
             if clear_resync:
                 self.needs_resync = False
                 clear_resync = False
-            out.extend(general((ev,)))
+            out.extend(self.feed_many_general((ev,)))
             last = self._last
             n = self._n_pending
             cur = self._slot
@@ -399,7 +417,9 @@ class FrameAssembler:
         self._frames += made
         return out
 
-    def feed_many_general(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+    def feed_many_general(
+        self, events: Iterable[tuple[int, int, int, int, int]], fast: bool = False
+    ) -> list[Frame]:
         """feed_many for every device: the reference the fast loop is tested against.
 
         One pass: each event goes straight into the state, and the first change
@@ -409,6 +429,13 @@ class FrameAssembler:
         the live reader and of replay; it is written for speed, and a test
         checks it against a plain buffer-then-apply implementation.
         """
+        if (
+            fast
+            and not self.multitouch
+            and isinstance(events, _SEQUENCES)
+            and len(events) >= self.short_batch
+        ):
+            return self._compile_single()(events)
         out: list[Frame] = []
         stats = self._counts
         ranges = self._ranges

@@ -20,6 +20,7 @@ equal to feed_many_general on every recording and on random streams.
 
 from __future__ import annotations
 
+import operator
 import textwrap
 from collections.abc import Callable, Iterable
 from typing import Any
@@ -42,9 +43,14 @@ _ORDER = (
 )
 
 
+def sorted_codes(asm: FrameAssembler) -> list[int]:
+    """The device's axes in the order the loop tests them."""
+    return sorted(asm._abs, key=lambda c: (_ORDER.index(c) if c in _ORDER else 99, c))
+
+
 def source(asm: FrameAssembler) -> str:
     """The loop's source for this assembler's device (read it to see what runs)."""
-    codes = sorted(asm._abs, key=lambda c: (_ORDER.index(c) if c in _ORDER else 99, c))
+    codes = sorted_codes(asm)
     ranges = asm._ranges
     has_x, has_y = ecodes.ABS_X in asm._abs, ecodes.ABS_Y in asm._abs
     p = ecodes.ABS_PRESSURE
@@ -59,7 +65,14 @@ def source(asm: FrameAssembler) -> str:
         tip = "False"
     tilt_x = f"a{tx}" if asm._has_tilt else "None"
     tilt_y = f"a{ty}" if asm._has_tilt else "None"
-    load = "".join(f"    a{c} = c{c} = abs_[{c}]\n" for c in codes)
+    names = ", ".join(f"a{c}" for c in codes)
+    if len(codes) > 1:
+        load = f"    {names} = get_axes(abs_)\n"
+    else:
+        load = "".join(f"    a{c} = abs_[{c}]\n" for c in codes)
+    load += "".join(f"    c{c} = a{c}\n" for c in codes)
+    # the state when no frame is in progress: every axis at its committed value
+    settled = "{" + ", ".join(f"{c}: a{c}" for c in codes) + "}"
     reload = "".join(
         f"        a{c} = abs_[{c}]\n        c{c} = undo.get({c}, a{c})\n" for c in codes
     )
@@ -88,13 +101,15 @@ def source(asm: FrameAssembler) -> str:
         )
     else:
         axis_code = "                stats['unknown_code'] += 1\n"
-    return f"""def feed(events):
+    return f"""abs_ = asm._abs
+undo = asm._undo_abs
+stats = asm._counts
+general = asm.feed_many_general
+
+
+def feed(events):
     out = []
     append = out.append
-    abs_ = asm._abs
-    undo = asm._undo_abs
-    stats = asm._counts
-    general = asm.feed_many_general
     n = asm._n_pending
     seen = asm._seen_position
     seen_ok = asm._seen_start
@@ -175,7 +190,10 @@ def source(asm: FrameAssembler) -> str:
         key_touch = asm._key_touch
         buttons = asm._button_state
 {reload}    # the batch is over: the state as feed_many_general would leave it
-{store.format(i="    ")}    asm._n_pending = n
+    if n:
+{store.format(i="        ")}    else:
+        abs_.update({settled})
+    asm._n_pending = n
     asm._seen_position = seen
     asm._seen_start = seen_ok
     asm._last = last
@@ -211,6 +229,7 @@ def compile_feed(asm: FrameAssembler, names: dict[str, object]) -> Feed:
     if make is None:
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
+            "get_axes": operator.itemgetter(*sorted_codes(asm)),
             "default_tool": asm._default_tool,
             **names,
         }
