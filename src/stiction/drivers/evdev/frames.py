@@ -25,6 +25,7 @@ of types and codes the device does not have.
 
 from __future__ import annotations
 
+import functools
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -51,6 +52,9 @@ ABS_MT_PRESSURE = ecodes.ABS_MT_PRESSURE
 ABS_MT_DISTANCE = ecodes.ABS_MT_DISTANCE
 ABS_MT_TOOL_TYPE = ecodes.ABS_MT_TOOL_TYPE
 MT_TOOL_PEN = 1
+_PEN = Tool.PEN  # a module global reads faster than the enum's class attribute
+_FINGER = Tool.FINGER
+_SEQUENCES = (list, tuple)  # made once: `list | tuple` builds a union at every call
 _tnew = tuple.__new__  # NamedTuple's own __new__ is a Python function: 5x slower
 MT_TOOL_PALM = 2  # kernel: a palm is not a touch; a finger turning palm has lifted
 ABS_X = ecodes.ABS_X
@@ -173,6 +177,8 @@ class FrameAssembler:
         self._ranges = {code: (a.minimum, a.maximum) for code, a in desc.axes.items()}
         self._valid_keys = desc.keys
         self._slots = [_Slot() for _ in range(self.num_slots)]
+        #: _feed_mt's stand-in while the slot number is out of range (never written)
+        self._spare_slot = _Slot()
         slot_axis = desc.axes.get(ABS_MT_SLOT)
         self._slot = slot_axis.value if slot_axis is not None else 0
         self._slot_ok = 0 <= self._slot < self.num_slots
@@ -194,6 +200,17 @@ class FrameAssembler:
         self._default_tool = Tool.PEN if desc.kind == "pen" else Tool.FINGER
         self._slot_start = (self._slot, self._slot_ok)
         self._seen_start = False
+        self._feed_single: Callable[[Iterable[tuple[int, int, int, int, int]]], list[Frame]] | None
+        self._feed_single = None
+        #: batches shorter than this (events) take feed_many_general on a single-tool
+        #: device: three frames of a pen, where the generated loop starts to pay
+        self.short_batch = 16
+        # feed_many without its own call layer (a live read is a frame or two, where
+        # one more Python call per batch shows): the loop it would pick, bound here
+        if self.multitouch:
+            self.feed_many = self._feed_mt  # type: ignore[method-assign]
+        else:
+            self.feed_many = functools.partial(self.feed_many_general, fast=True)  # type: ignore[method-assign]
 
     @property
     def stats(self) -> Counter[str]:
@@ -215,6 +232,196 @@ class FrameAssembler:
     def feed_many(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
         """Consume a batch (a read() worth, or a whole recording); the frames it completes.
 
+        A device without slots (most pen tablets) takes `_feed_single`, a loop
+        written for the device (single_code.py, made at the first batch) --
+        unless the batch is shorter than `short_batch` events: that loop
+        moves its state into locals and back at every call (about 0.7 us),
+        more than it saves on a frame or two, the usual read() of a live
+        device. Multi-touch devices take `_feed_mt`. All give the same frames
+        and counters (tests/evdev/test_evdev_fast_paths.py). __init__ binds
+        the choice to the instance's `feed_many`; this method makes the same
+        choice for a call through the class.
+        """
+        if self.multitouch:
+            return self._feed_mt(events)
+        return self.feed_many_general(events, True)
+
+    def _compile_single(self) -> Callable[[Iterable[tuple[int, int, int, int, int]]], list[Frame]]:
+        if self._feed_single is None:
+            from stiction.drivers.evdev.single_code import compile_feed
+
+            names = {"Frame": Frame, "Contact": Contact, "ended": _ended}
+            self._feed_single = compile_feed(self, names)
+        return self._feed_single
+
+    def _feed_mt(self, events: Iterable[tuple[int, int, int, int, int]]) -> list[Frame]:
+        """feed_many for a multi-touch device: axes, EV_MSC and SYN_REPORT inline.
+
+        feed_many_general's multi-touch branch with the current slot, its
+        validity and the "slot already saved for undo" flag in locals; keys,
+        SYN_DROPPED and the dropped stretch go one event at a time through
+        feed_many_general, with the locals handed over around the call.
+        """
+        out: list[Frame] = []
+        stats = self._counts
+        ranges = self._ranges
+        slots = self._slots
+        dirty = self._dirty
+        undo_slots = self._undo_slots
+        undo_abs = self._undo_abs
+        num_slots = self.num_slots
+        n = self._n_pending
+        cur = self._slot
+        slot_ok = self._slot_ok
+        spare = self._spare_slot
+        slot = slots[cur] if slot_ok else spare
+        saved = False  # slot `cur` is in `dirty` (its undo state is kept)
+        dropping = self._dropping
+        last = self._last
+        made = 0  # frames made inline (_commit counts its own)
+        clear_resync = False  # a frame was made: needs_resync is False from here
+        has_p = self._has_mt_pressure
+        tnew = _tnew
+        for ev in events:
+            ev_type = ev[2]
+            if dropping:
+                pass  # through the general path below
+            elif ev_type == 3:  # EV_ABS
+                n += 1
+                code = ev[3]
+                if code < ABS_MT_SLOT:
+                    # the legacy single-touch axes of a multi-touch device: ignored
+                    if code not in ranges:
+                        stats["unknown_code"] += 1
+                    continue
+                if code == ABS_MT_SLOT:
+                    cur = ev[4]
+                    slot_ok = 0 <= cur < num_slots
+                    if slot_ok:
+                        slot = slots[cur]
+                        saved = cur in dirty
+                    else:
+                        stats["slot_out_of_range"] += 1
+                    continue
+                if not slot_ok:
+                    stats["slot_out_of_range"] += 1
+                    continue
+                try:
+                    lo, hi = ranges[code]
+                except KeyError:
+                    stats["unknown_code"] += 1
+                    continue
+                if not saved:
+                    saved = True
+                    if cur not in dirty:
+                        dirty.add(cur)
+                        # slot.state(), inline
+                        undo_slots[cur] = (
+                            slot.tid,
+                            slot.x,
+                            slot.y,
+                            slot.pressure,
+                            slot.distance,
+                            slot.tool_type,
+                        )
+                value = ev[4]
+                if code == ABS_MT_POSITION_X:
+                    slot.x = value
+                elif code == ABS_MT_POSITION_Y:
+                    slot.y = value
+                elif code == ABS_MT_PRESSURE:
+                    slot.pressure = value
+                else:
+                    self._set_slot_value(slot, code, value)
+                    continue
+                if value < lo or value > hi:
+                    stats["value_out_of_range"] += 1
+                continue
+            elif ev_type == 0:  # EV_SYN
+                if ev[3] == 0:  # SYN_REPORT
+                    if self._tid_changed or self._dirty_all or self._keys_changed:
+                        # contacts may begin or end, or all change: _commit() does it
+                        self._slot = cur
+                        self._slot_ok = slot_ok
+                        self._last = last
+                        out.append(self._commit(ev[0], ev[1]))  # clears `dirty`
+                        last = self._last
+                        clear_resync = False
+                    else:
+                        # the common frame, _commit()'s last branch inline: the
+                        # same contacts, those of moved slots rebuilt
+                        made += 1
+                        clear_resync = True
+                        if dirty:
+                            built = []
+                            for c in last:
+                                i = c[1]
+                                if i in dirty:
+                                    s = slots[i]
+                                    tid = s.tid
+                                    c = tnew(
+                                        Contact,
+                                        (
+                                            tid,
+                                            i,
+                                            tid,
+                                            _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                            s.x,
+                                            s.y,
+                                            s.pressure if has_p else None,
+                                            s.distance == 0,
+                                            True,
+                                            None,
+                                            None,
+                                            self._button_state,
+                                        ),
+                                    )
+                                built.append(c)
+                            last = tuple(built)
+                            dirty.clear()
+                        out.append(tnew(Frame, (ev[0], ev[1], last, ())))
+                    saved = False
+                    n = 0
+                    if undo_abs:
+                        undo_abs.clear()
+                    if undo_slots:
+                        undo_slots.clear()
+                    self._keys_ok = None
+                    self._slot_start = (cur, slot_ok)
+                    self._seen_start = self._seen_position
+                    continue
+            elif ev_type != 1:  # EV_KEY goes the general way
+                n += 1  # EV_MSC (serials, scan codes) and others carry no contact state
+                continue
+            self._n_pending = n
+            self._slot = cur
+            self._slot_ok = slot_ok
+            self._last = last
+            if clear_resync:
+                self.needs_resync = False
+                clear_resync = False
+            out.extend(self.feed_many_general((ev,)))
+            last = self._last
+            n = self._n_pending
+            cur = self._slot
+            slot_ok = self._slot_ok
+            slot = slots[cur] if slot_ok else spare
+            saved = False
+            dropping = self._dropping
+        self._n_pending = n
+        self._slot = cur
+        self._slot_ok = slot_ok
+        self._last = last
+        if clear_resync:
+            self.needs_resync = False
+        self._frames += made
+        return out
+
+    def feed_many_general(
+        self, events: Iterable[tuple[int, int, int, int, int]], fast: bool = False
+    ) -> list[Frame]:
+        """feed_many for every device: the reference the fast loop is tested against.
+
         One pass: each event goes straight into the state, and the first change
         of each axis, slot and the key set within a frame is remembered, so
         that SYN_DROPPED can put back the last complete frame's state (the
@@ -222,6 +429,13 @@ class FrameAssembler:
         the live reader and of replay; it is written for speed, and a test
         checks it against a plain buffer-then-apply implementation.
         """
+        if (
+            fast
+            and not self.multitouch
+            and isinstance(events, _SEQUENCES)
+            and len(events) >= self.short_batch
+        ):
+            return self._compile_single()(events)
         out: list[Frame] = []
         stats = self._counts
         ranges = self._ranges
@@ -505,20 +719,23 @@ class FrameAssembler:
             )
         return out
 
+    def _key_state(self) -> None:
+        """What follows from the keys alone, worked out when they change
+        rather than at every frame (most frames only move the pen)."""
+        keys = self._keys
+        self._button_state = self._buttons()
+        self._keys_changed = False
+        self._key_tool = None
+        if keys:
+            for code, t in _TOOL_ORDER:
+                if code in keys:
+                    self._key_tool = t
+                    break
+        self._key_touch = BTN_TOUCH in keys
+
     def _current_single(self) -> Contact | None:
         if self._keys_changed:
-            # What follows from the keys alone, worked out when they change
-            # rather than at every frame (most frames only move the pen).
-            keys = self._keys
-            self._button_state = self._buttons()
-            self._keys_changed = False
-            self._key_tool = None
-            if keys:
-                for code, t in _TOOL_ORDER:
-                    if code in keys:
-                        self._key_tool = t
-                        break
-            self._key_touch = BTN_TOUCH in keys
+            self._key_state()
         tool: Tool | None = None
         if self._has_tool_keys:
             tool = self._key_tool
@@ -608,11 +825,62 @@ class FrameAssembler:
             if not dirty:
                 contacts = last
             elif len(last) == 1:
-                c0 = last[0]
-                contacts = (self._contact_mt(c0[1]),) if c0[1] in dirty else last
+                i = last[0][1]
+                if i in dirty:
+                    s = self._slots[i]
+                    tid = s.tid
+                    contacts = (
+                        _tnew(
+                            Contact,
+                            (
+                                tid,
+                                i,
+                                tid,
+                                _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                s.x,
+                                s.y,
+                                s.pressure if self._has_mt_pressure else None,
+                                s.distance == 0,
+                                True,
+                                None,
+                                None,
+                                self._button_state,
+                            ),
+                        ),
+                    )
+                else:
+                    contacts = last
             else:
-                make = self._contact_mt
-                contacts = tuple([make(c[1]) if c[1] in dirty else c for c in last])
+                # _contact_mt() inline: a method call per moved contact was a third of it
+                slots = self._slots
+                has_p = self._has_mt_pressure
+                buttons = self._button_state
+                tnew = _tnew
+                made = []
+                for c in last:
+                    i = c[1]
+                    if i in dirty:
+                        s = slots[i]
+                        tid = s.tid
+                        c = tnew(
+                            Contact,
+                            (
+                                tid,
+                                i,
+                                tid,
+                                _PEN if s.tool_type == MT_TOOL_PEN else _FINGER,
+                                s.x,
+                                s.y,
+                                s.pressure if has_p else None,
+                                s.distance == 0,
+                                True,
+                                None,
+                                None,
+                                buttons,
+                            ),
+                        )
+                    made.append(c)
+                contacts = tuple(made)
         dirty.clear()
         self._last = contacts
         return _tnew(Frame, (sec, usec, contacts, ended))
