@@ -122,6 +122,23 @@ def set_realtime(priority: int) -> str | None:
     return None
 
 
+def set_thread_realtime(native_id: int, priority: int) -> str | None:
+    """SCHED_FIFO at `priority` for another thread of this process (Linux: a tid).
+
+    The readers run below the loop: above every ordinary process, so that a
+    reader holding the GIL is not preempted by a compositor or a build while
+    the loop waits for it, and below the loop, so that the loop runs first
+    when both are ready. Returns None or why the kernel refused."""
+    if not hasattr(os, "sched_setscheduler"):
+        return "real-time scheduling is not available on this platform"
+    try:
+        policy = os.SCHED_FIFO | os.SCHED_RESET_ON_FORK
+        os.sched_setscheduler(native_id, policy, os.sched_param(priority))
+    except OSError as exc:
+        return f"{exc.strerror or exc}"
+    return None
+
+
 def set_ordinary() -> None:
     """Back to ordinary scheduling (lowering a thread's priority needs no rights)."""
     if hasattr(os, "sched_setscheduler"):

@@ -39,6 +39,7 @@ from stiction.daemon.clock import (
     VirtualClock,
     set_ordinary,
     set_realtime,
+    set_thread_realtime,
     tighten_timer_slack,
 )
 from stiction.daemon.config import load_options
@@ -217,6 +218,18 @@ class Daemon:
             slot.iterator = iter(source.samples())
         else:
             start_reader(slot, lambda s: None, self.waker)
+            if self.realtime:  # a device opened (or reopened) while the loop is real-time
+                self._reader_realtime(slot)
+
+    def _reader_realtime(self, slot: DeviceSlot) -> None:
+        """The reader one priority below the loop (clock.set_thread_realtime says why)."""
+        thread = slot.thread
+        if thread is None or thread.native_id is None:
+            return
+        prio = max(self.realtime - 1, 1)
+        refused = set_thread_realtime(thread.native_id, prio)
+        if refused:
+            log.warning("reader_realtime_refused device=%s reason=%s", slot.name, refused)
 
     @staticmethod
     def _mapping_config(slot: DeviceSlot) -> MappingConfig:
@@ -315,7 +328,11 @@ class Daemon:
                     log.warning("realtime_refused priority=%d reason=%s", prio, refused)
                 else:
                     self.realtime = self.opts.realtime
-                    log.info("realtime priority=%d", self.realtime)
+                    log.info("realtime priority=%d readers=%d", self.realtime,
+                             max(self.realtime - 1, 1))  # fmt: skip
+                    for slot in self.slots:
+                        if slot.thread is not None and slot.thread.is_alive():
+                            self._reader_realtime(slot)
         self.pipeline.warm_up()  # compile (or load) the batch step before the clock starts
         # Everything built so far (modules, scene, compiled kernels) lives as
         # long as the daemon: out of the collector's way, so that a full
