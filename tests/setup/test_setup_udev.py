@@ -176,3 +176,11 @@ def test_not_root_prints_what_it_would_do_and_fails(
     assert "udev install`" in captured.err and "sudo" in captured.err
     assert "nothing written" in captured.err
     assert Path("/etc/udev/rules.d", RULES_NAME).exists() == before
+
+
+def test_install_page_counts_the_ids_the_rules_name() -> None:
+    """docs/install.md says how many tablet ids the rules cover; it must stay true."""
+    page = (REPO / "docs" / "install.md").read_text(encoding="utf-8")
+    found = re.search(r"the hidraw nodes of the (\d+) tablet ids", page)
+    assert found, "docs/install.md no longer says how many ids the rules cover"
+    assert int(found.group(1)) == len(shipped_ids())
