@@ -5,7 +5,9 @@ counting, conflation and snapshot behaviour: both use stream.StreamState."""
 from __future__ import annotations
 
 import asyncio
-from collections.abc import AsyncIterator, Iterable, Sequence
+import contextlib
+import signal
+from collections.abc import AsyncIterator, Iterable, Iterator, Sequence
 from typing import cast
 
 import zmq
@@ -147,3 +149,26 @@ class AsyncSubscriber:
 
     async def __aexit__(self, *exc: object) -> None:
         self.close()
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[asyncio.Event]:
+    """An event that Ctrl-C or SIGTERM sets while the block runs, on the running loop.
+
+    For servers that must shut down in order (close pages, clean up sockets)
+    rather than die in KeyboardInterrupt. Where the loop cannot take signal
+    handlers (not the main thread, another platform) the event is only set by
+    the caller. The handlers are removed when the block ends.
+    """
+    stop = asyncio.Event()
+    loop = asyncio.get_running_loop()
+    sigs = (signal.SIGINT, signal.SIGTERM)
+    for sig in sigs:
+        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
+            loop.add_signal_handler(sig, stop.set)
+    try:
+        yield stop
+    finally:
+        for sig in sigs:
+            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
+                loop.remove_signal_handler(sig)

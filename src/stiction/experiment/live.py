@@ -26,7 +26,6 @@ import hmac
 import json
 import logging
 import secrets
-import signal
 import sys
 import time
 from pathlib import Path
@@ -38,6 +37,7 @@ from aiohttp import WSMsgType, web
 
 from stiction import protocol
 from stiction.clients import control as control_mod
+from stiction.clients.aio import stop_on_signals
 from stiction.errors import ProtocolError, StictionError
 from stiction.experiment.runner import AnswerError, Session
 from stiction.experiment.stimulus import TOUCHING
@@ -265,11 +265,18 @@ async def serve(
         )
     if ready is not None and not ready.done():
         ready.set_result(url)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
-            loop.add_signal_handler(sig, stop.set)
+    try:
+        with stop_on_signals() as stop:
+            await _serve_until_done(runner, stop)
+    finally:
+        for ws in list(runner.pages):
+            with contextlib.suppress(Exception):
+                await ws.close()
+        await app_runner.cleanup()
+
+
+async def _serve_until_done(runner: LiveRunner, stop: asyncio.Event) -> None:
+    """Until the study is done, a signal, or a feed fails (its error is raised)."""
     tasks = [
         asyncio.ensure_future(c) for c in (runner.frames(), runner.scenes(), runner.broadcast())
     ]
@@ -288,13 +295,6 @@ async def serve(
         for t in [*tasks, *waiters]:
             with contextlib.suppress(asyncio.CancelledError, Exception):
                 await t
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
-                loop.remove_signal_handler(sig)
-        for ws in list(runner.pages):
-            with contextlib.suppress(Exception):
-                await ws.close()
-        await app_runner.cleanup()
 
 
 def run_live(

@@ -8,7 +8,6 @@ import errno
 import hmac
 import logging
 import secrets
-import signal
 import socket
 import sys
 from pathlib import Path
@@ -17,6 +16,7 @@ from typing import Any
 from aiohttp import WSCloseCode, WSMsgType, web
 
 from stiction import __version__
+from stiction.clients.aio import stop_on_signals
 from stiction.clients.curve import CurveKeys
 from stiction.clients.web.bridge import Bridge
 from stiction.clients.web.errors import PortInUse
@@ -188,21 +188,14 @@ async def run(
             )
     if ready is not None and not ready.done():
         ready.set_result(url)
-    stop = asyncio.Event()
-    loop = asyncio.get_running_loop()
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
-            loop.add_signal_handler(sig, stop.set)
     try:
-        if seconds is None:
-            await stop.wait()
-        else:
-            with contextlib.suppress(TimeoutError):
-                await asyncio.wait_for(stop.wait(), seconds)
+        with stop_on_signals() as stop:
+            if seconds is None:
+                await stop.wait()
+            else:
+                with contextlib.suppress(TimeoutError):
+                    await asyncio.wait_for(stop.wait(), seconds)
     finally:
-        for sig in (signal.SIGINT, signal.SIGTERM):
-            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
-                loop.remove_signal_handler(sig)
         await runner.cleanup()
 
 
