@@ -22,6 +22,7 @@ from evdev import ecodes as e
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
 from stiction.drivers.evdev import single_code
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, FrameAssembler
@@ -29,17 +30,6 @@ from stiction.drivers.evdev.recording import load
 
 Event = tuple[int, int, int, int, int]
 
-RECORDINGS = [
-    "wacom-cintiq-13hd-touch-pen.evemu",
-    "wacom-cintiq-12wx.evemu",
-    "wacom-intuos4-6x9.desc",
-    "uc-logic-wp5540u-pen.evemu",
-    "wacom-cintiq-13hd-touch-finger.evemu",
-    "cypress-trackpad.two-finger-press.evemu",
-    "elantech-touchpad.samsung-700z3a.evemu",
-    "synaptics-touchpad.hp8470p.desc",
-    "wacom-intuos5-touch-m-finger.desc",
-]
 
 PEN = DeviceDescription(
     name="Test Pen",
