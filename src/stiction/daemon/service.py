@@ -444,7 +444,7 @@ class Daemon:
         msg = protocol.scene_message(self.pipeline.wire(), self.last_tick)
         self.publisher.send(protocol.TOPIC_SCENE, msg)
 
-    # Changes are scene_state's: the op table and tools call them here.
+    # ------------------------------------------------------------ changes (scene_state.py)
     def prepare_scene(
         self, scene: Scene, defaults: dict[str, Any] | None = None, *, count: bool = True
     ) -> Pipeline:
