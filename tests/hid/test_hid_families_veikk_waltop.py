@@ -1,6 +1,6 @@
 """The families written from OpenTabletDriver's public readers: VEIKK's 13-byte reports
-(``veikk-vk``, ``veikk-vk-tilt``), Waltop's tablet mode (``waltop``, GeniusV2), and the
-HuionTilt/Inspiroy parsers mapped to ``uclogic-v2``.
+(``veikk-vk``, ``veikk-vk-tilt``) and their 9-byte form (``veikk-v1``), Waltop's tablet
+mode (``waltop``, GeniusV2), and the HuionTilt/Inspiroy parsers mapped to ``uclogic-v2``.
 
 Which data each is tested on:
 
@@ -10,6 +10,10 @@ Which data each is tested on:
   the dump in OpenTabletDriver issue #3924 (VEIKK Voila VO1060). The real
   veikk-s640.hid (an older VEIKK, 8-byte reports, descriptor only) is where
   the family must NOT go: its interface has no 13-byte report.
+- ``veikk-v1``: no recording, no public dump; reports BUILT from the layout,
+  read end to end through a user's device-table entry (no catalogue entry
+  names it: every id with a VeikkV1 or VeikkA15 model is shared with a
+  13-byte model, so the generated entry has no parser).
 - ``waltop``: no recording and no public dump; reports BUILT from the layout
   (families_waltop.py's docstring).
 - ``uclogic-v2`` for HuionTilt: REAL reports copied from the Huion HS610's
@@ -45,7 +49,7 @@ from stiction.drivers.hid.recording import load_recording
 from stiction.drivers.hid.stream import ReportStream
 from stiction.drivers.sample import PenSample
 
-NEW = ("veikk-vk", "veikk-vk-tilt", "waltop")
+NEW = ("veikk-vk", "veikk-vk-tilt", "veikk-v1", "waltop")
 VK = Geometry(68840, 38720, 8191, 344.2, 193.6)  # XOPPOX D161: X needs 17 bits
 
 
@@ -61,6 +65,11 @@ def _vk(
         + p.to_bytes(2, "little")
         + bytes([tilt[0] & 0xFF, tilt[1] & 0xFF])
     )
+
+
+def _v1(x: int, y: int, p: int, flags: int = 0x20) -> bytes:
+    """The 9-byte form: ID 9, sub-type 0x41, flags, X, Y, pressure 16-bit."""
+    return bytes([0x09, 0x41, flags]) + b"".join(v.to_bytes(2, "little") for v in (x, y, p))
 
 
 def _waltop(x: int, y: int, p: int, flags: int) -> bytes:
@@ -130,7 +139,7 @@ def test_veikk_frame_reports_of_a_public_dump_are_not_the_pen(family: str) -> No
 @pytest.mark.parametrize("family", NEW)
 def test_short_wrong_id_and_all_ones_reports(family: str) -> None:
     fix = fixup(family, VK)
-    good = _vk(1, 2, 3) if family.startswith("veikk") else _waltop(1, 2, 3, 0x04)
+    good = {"waltop": _waltop(1, 2, 3, 0x04), "veikk-v1": _v1(1, 2, 3)}.get(family, _vk(1, 2, 3))
     assert fix(good) is not None
     assert fix(good[:7]) is None  # short
     assert fix(bytes([0x07]) + good[1:]) is None  # another report ID
@@ -138,9 +147,8 @@ def test_short_wrong_id_and_all_ones_reports(family: str) -> None:
     # All ones behind the pen's header: values beyond the ranges, clamped to them.
     out = fix(good[:2] + b"\xff" * 11 if family.startswith("veikk") else b"\x02" + b"\xff" * 7)
     assert out is not None and out[0] == NORMAL_ID
-    assert int.from_bytes(out[2:6], "little") == min(
-        VK.max_x, 0xFFFFFF if family != "waltop" else 0xFFFF
-    )
+    wide = family in ("veikk-vk", "veikk-vk-tilt")  # 24-bit X; the others 16-bit
+    assert int.from_bytes(out[2:6], "little") == min(VK.max_x, 0xFFFFFF if wide else 0xFFFF)
     assert int.from_bytes(out[6:10], "little") == VK.max_y
     assert int.from_bytes(out[10:12], "little") == VK.max_pressure
 
@@ -184,6 +192,40 @@ def test_veikk_vk1060pro_end_to_end_through_its_catalogue_entry() -> None:
     assert samples[0].y == pytest.approx(0.079375, abs=1e-5)
     assert samples[10].pressure == pytest.approx(4000 / 8191, abs=1e-4)
     assert samples[-1].in_range is False and samples[-2].in_range
+
+
+def test_veikk_v1_reads_the_9_byte_form_built_from_the_layout() -> None:
+    """BUILT: hover, press with the second button, leave; the 13-byte families do
+    not take a 9-byte report, nor this one a frame report of issue #3924's dump."""
+    read = FAMILIES["veikk-v1"](VK)
+    assert read(_v1(30000, 20000, 0)) == PenState(30000, 20000, 0, False, True)
+    pressed = read(_v1(30001, 20002, 8191, 0x20 | 0x04))
+    assert pressed == PenState(30001, 20002, 8191, True, True, barrel2=True)
+    assert read(_v1(30001, 20002, 0, 0xC0)) == PenState(30001, 20002, 0, False, False)
+    assert FAMILIES["veikk-vk"](VK)(_v1(1, 2, 3)) is None
+    assert read(bytes.fromhex("09 42 03 00 01 00 00 00 00 00 00 02 07")) is None
+
+
+def test_veikk_v1_end_to_end_through_a_users_entry(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`stiction hid decode` on a recording BUILT for an S640's vendor interface
+    (2feb:0001), read through a user's device-table entry naming ``veikk-v1``."""
+    table = tmp_path / "hid-devices.toml"
+    table.write_text(
+        '[[device]]\nid = "2feb:0001"\nsource = "a test"\nfamily = "veikk-v1"\n'
+        "max_x = 30480\nmax_y = 20320\nmax_pressure = 8191\nsize_mm = [152.4, 101.6]\n",
+        "utf-8",
+    )
+    monkeypatch.setenv("STICTION_HID_DEVICES", str(table))
+    path = tmp_path / "s640-vendor.hid"
+    reports = [_v1(15240, 10160, 0), _v1(15240, 10160, 4096, 0x22), _v1(15240, 10160, 0, 0xC0)]
+    _write_recording(path, 0x2FEB, 0x0001, _vendor_descriptor(9, 9), reports)
+    (hover,), (press,), (gone,) = (line["contacts"] for line in _decode(capsys, path))
+    assert (hover["x"], hover["y"]) == pytest.approx((0.0762, 0.0508), abs=1e-5)
+    assert (hover["tip"], press["tip"]) == (False, True)
+    assert press["pressure"] == pytest.approx(4096 / 8191, abs=1e-4)
+    assert gone["in_range"] is False
 
 
 # A vendor interface: Usage Page 0xff0a, Usage 1, Collection (Application),
@@ -330,6 +372,8 @@ def test_inspiroy_frame_codes_are_not_the_pen() -> None:
     [
         ("VeikkReportParser", "veikk-vk"),
         ("VeikkTiltReportParser", "veikk-vk-tilt"),
+        ("VeikkV1ReportParser", "veikk-v1"),
+        ("VeikkA15ReportParser", "veikk-v1"),
         ("GeniusReportParserV2", "waltop"),
         ("HuionTiltReportParser", "uclogic-v2"),
         ("InspiroyReportParser", "uclogic-v2"),

@@ -245,6 +245,7 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "veikk-vk": _veikk.veikk_vk,
     "veikk-vk-tilt": _veikk.veikk_vk_tilt,
     "waltop": _waltop.waltop,
+    "veikk-v1": _veikk.veikk_v1,
 }
 
 OTD_PARSERS: dict[str, str] = {
@@ -263,7 +264,8 @@ OTD_PARSERS: dict[str, str] = {
     "XP_PenReportParser": "xp-pen",
     "XP_PenOffsetPressureReportParser": "xp-pen",
     "GeniusReportParser": "kye",
-    "VeikkV1ReportParser": "veikk",
+    "VeikkV1ReportParser": "veikk-v1",
+    "VeikkA15ReportParser": "veikk-v1",
     "VeikkReportParser": "veikk-vk",
     "VeikkTiltReportParser": "veikk-vk-tilt",
     "GeniusReportParserV2": "waltop",
@@ -286,10 +288,12 @@ Giano are read with their tilt bytes. XP-Pen's own parser and its
 "offset pressure" variant both get the UGEE v2 layout, which hid-uclogic
 uses for the XP-Pen Deco L (28bd:0935) that OpenTabletDriver gives the
 latter; `family_for` keeps it off 8-byte reports, a different layout.
-Genius is hid-kye's report 0x10; VEIKK's first firmware the S640 layout.
-Veikk and VeikkTilt (13-byte reports, ID 9) and GeniusV2 (Waltop's "tablet"
-mode) have no kernel driver: their families follow OpenTabletDriver's own
-readers (families_veikk.py, families_waltop.py). HuionTilt and Inspiroy
+Genius is hid-kye's report 0x10. VEIKK's parsers (VeikkV1 and VeikkA15:
+9-byte reports; Veikk and VeikkTilt: 13 bytes, all ID 9 with sub-type 0x41)
+and GeniusV2 (Waltop's "tablet" mode) have no kernel driver: their families
+follow OpenTabletDriver's own readers (families_veikk.py,
+families_waltop.py). VeikkV1 is not the ``veikk`` family: that reads the
+S640's firmware report 2, not the vendor report V1 reads. HuionTilt and Inspiroy
 read the UC-Logic v2 report 8 (X, Y, pressure, tilt at hid-uclogic's
 offsets; X and Y only 16-bit, which all their tablets' ranges fit, and the
 frame reports ignored), hence ``uclogic-v2``.
