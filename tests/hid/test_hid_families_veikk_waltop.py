@@ -363,8 +363,12 @@ def test_inspiroy_frame_codes_are_not_the_pen() -> None:
     read = FAMILIES["uclogic-v2"](entry.geometry)  # type: ignore[arg-type]
     pen = bytes([8, 0x81, 0x00, 0x7D, 0x20, 0x4E, 0xFF, 0x3F, 0, 0, 0, 0])
     assert read(pen) == PenState(32000, 20000, 16383, True, True)
-    for code in (0xE0, 0xE3, 0xF1):
-        assert read(bytes([8, code, 1, 0, 0, 5, 0, 0, 0, 0, 0, 0])) is None
+    frames = [bytes([8, code, 1, 0, 0, 5, 0, 0, 0, 0, 0, 0]) for code in (0xE0, 0xE3, 0xF1)]
+    assert [read(f) for f in frames] == [None, None, None]
+    stream = _stream(entry)  # end to end: the corner of the 160 x 100 mm surface, full pressure
+    (corner,) = _feed(stream, [*frames, pen])
+    assert (corner.x, corner.y) == pytest.approx((0.160, 0.100), abs=1e-5)
+    assert corner.pressure == pytest.approx(1.0) and stream.stats["ignored"] == 3
 
 
 @pytest.mark.parametrize(
