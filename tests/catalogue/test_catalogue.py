@@ -218,7 +218,8 @@ def test_real_shared_huion_id_with_and_without_its_firmware_string() -> None:
     hs610 = hid_lookup(0x256C, 0x006D, {201: "HUION_T194_230101"})
     assert hs610 is not None and hs610.name == "Huion HS610"
     assert hs610.size_m == pytest.approx((0.254, 0.15875))
-    assert hs610.parser == "HuionTiltReportParser" and hs610.family is None
+    # HuionTilt reads hid-uclogic's v2 report 8 (families.OTD_PARSERS)
+    assert hs610.parser == "HuionTiltReportParser" and hs610.family == "uclogic-v2"
     assert hs610.init == "huion-string-descriptor"
     assert "Huion/HS610.json" in hs610.source and "DIGImend" in hs610.source
 

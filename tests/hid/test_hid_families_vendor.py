@@ -282,7 +282,7 @@ def test_any_bytes_give_nothing_or_a_state_within_the_geometry(family: str, data
         ("XP_PenReportParser", 8, None),  # the 8-byte reports are another layout
         ("XP_PenOffsetPressureReportParser", 12, "xp-pen"),
         ("GeniusReportParser", 8, "kye"),
-        ("VeikkV1ReportParser", 9, "veikk"),
+        ("VeikkV1ReportParser", 9, "veikk-v1"),  # its 9-byte vendor report, not the S640's report 2
         ("XP_PenGen2ReportParser", 14, None),  # no public layout
         ("UCLogicV1ReportParser", 8, None),  # Artist 10S: its descriptor reads it
     ],

@@ -13,6 +13,8 @@ This module holds the Wacom families, the registry (`FAMILIES`, and
 `OTD_PARSERS` for the catalogue generator) and the normalised report. The
 vendor-mode families of other makers are in families_uclogic.py (Huion,
 Gaomon and UC-Logic; XP-Pen) and families_kye_veikk.py (Genius; VEIKK).
+VEIKK's 13-byte reports are in families_veikk.py, Waltop's (Genius V2) in
+families_waltop.py.
 
 The Wacom layouts follow the public descriptions of these protocols in Linux's
 drivers/hid/wacom_wac.c (GPL-2.0; only the byte layouts are taken, as facts,
@@ -56,11 +58,14 @@ from collections.abc import Callable
 
 from stiction.drivers.hid import families_kye_veikk as _kye_veikk
 from stiction.drivers.hid import families_uclogic as _uclogic
+from stiction.drivers.hid import families_veikk as _veikk
+from stiction.drivers.hid import families_waltop as _waltop
 from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
 
 __all__ = [
     "FAMILIES",
     "NORMAL_ID",
+    "NO_IN_RANGE",
     "OTD_PARSERS",
     "Geometry",
     "PenState",
@@ -237,6 +242,10 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "xp-pen": _uclogic.xp_pen,
     "kye": _kye_veikk.kye,
     "veikk": _kye_veikk.veikk,
+    "veikk-vk": _veikk.veikk_vk,
+    "veikk-vk-tilt": _veikk.veikk_vk_tilt,
+    "waltop": _waltop.waltop,
+    "veikk-v1": _veikk.veikk_v1,
 }
 
 OTD_PARSERS: dict[str, str] = {
@@ -255,7 +264,13 @@ OTD_PARSERS: dict[str, str] = {
     "XP_PenReportParser": "xp-pen",
     "XP_PenOffsetPressureReportParser": "xp-pen",
     "GeniusReportParser": "kye",
-    "VeikkV1ReportParser": "veikk",
+    "VeikkV1ReportParser": "veikk-v1",
+    "VeikkA15ReportParser": "veikk-v1",
+    "VeikkReportParser": "veikk-vk",
+    "VeikkTiltReportParser": "veikk-vk-tilt",
+    "GeniusReportParserV2": "waltop",
+    "HuionTiltReportParser": "uclogic-v2",
+    "InspiroyReportParser": "uclogic-v2",
 }
 """OpenTabletDriver's report parser name -> the family that reads the same protocol.
 
@@ -273,14 +288,25 @@ Giano are read with their tilt bytes. XP-Pen's own parser and its
 "offset pressure" variant both get the UGEE v2 layout, which hid-uclogic
 uses for the XP-Pen Deco L (28bd:0935) that OpenTabletDriver gives the
 latter; `family_for` keeps it off 8-byte reports, a different layout.
-Genius is hid-kye's report 0x10; VEIKK's first firmware the S640 layout.
+Genius is hid-kye's report 0x10. VEIKK's parsers (VeikkV1 and VeikkA15:
+9-byte reports; Veikk and VeikkTilt: 13 bytes, all ID 9 with sub-type 0x41)
+and GeniusV2 (Waltop's "tablet" mode) have no kernel driver: their families
+follow OpenTabletDriver's own readers (families_veikk.py,
+families_waltop.py). VeikkV1 is not the ``veikk`` family: that reads the
+S640's firmware report 2, not the vendor report V1 reads. HuionTilt and Inspiroy
+read the UC-Logic v2 report 8 (X, Y, pressure, tilt at hid-uclogic's
+offsets; X and Y only 16-bit, which all their tablets' ranges fit, and the
+frame reports ignored), hence ``uclogic-v2``.
 
 Left without a family, for want of a public description of their layout:
-XP_PenGen2 (14-byte reports, 16K pressure), XP_PenOffsetAux, GeniusV2
-(Waltop "tablet" mode), Veikk and VeikkTilt (13-byte vendor reports),
-HuionTilt, and UCLogicV1 (the XP-Pen Artist 10S, whose firmware descriptor
+XP_PenGen2 (14-byte reports, 16K pressure), XP_PenOffsetAux, and UCLogicV1
+(the XP-Pen Artist 10S, whose firmware descriptor
 describes its reports: see the recording xp-pen-artist-10s.hid).
 """
+
+NO_IN_RANGE: frozenset[str] = frozenset({"uclogic-v2", "waltop"})
+"""Families whose layout has no in-range bit: the pen counts as gone 100 ms
+after its last report (ReportStream's proximity timeout), as hid-uclogic does."""
 
 XP_PEN_LENGTHS = range(10, 17)
 """Report lengths (ID byte included) of the UGEE v2 layout: 10 bytes, or 12-16

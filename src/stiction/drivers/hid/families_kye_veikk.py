@@ -13,7 +13,10 @@
   pressure little-endian 16-bit at bytes 2-7 (jlam55555/veikk-linux-driver
   ``struct veikk_pen_report``, GPL); the in-range bit is bit 6 of byte 1,
   as the S640's own descriptor declares it (linuxwacom/wacom-hid-descriptors
-  'Veikk S640', ../shared/data/hid/veikk-s640.hid).
+  'Veikk S640', ../shared/data/hid/veikk-s640.hid). This is the report the
+  S640's firmware mode sends on its pen interface, for a hand-written
+  entry; OpenTabletDriver's VeikkV1 parser reads the 9-byte vendor report
+  of another interface instead: ``veikk-v1`` in families_veikk.py.
 """
 
 from __future__ import annotations

@@ -69,6 +69,11 @@ class ReportStream:
             from stiction.drivers.hid.families import fixup as family_fixup
 
             fixup = family_fixup(entry.family, entry.geometry)
+            from stiction.drivers.hid.families import NO_IN_RANGE
+            from stiction.drivers.hid.uclogic import PROXIMITY_TIMEOUT_S
+
+            if proximity_timeout is None and entry.family in NO_IN_RANGE:
+                proximity_timeout = PROXIMITY_TIMEOUT_S  # no in-range bit: see `idle`
         self.fixup = fixup
         self.proximity_timeout = proximity_timeout
         self._last_report_t: float | None = None
