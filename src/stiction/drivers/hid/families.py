@@ -76,6 +76,10 @@ NORMAL_ID = 0x02
 
 _NORMAL = struct.Struct("<BBIIH")  # id, flags, x, y, pressure
 TIP, BARREL, BARREL2, ERASER, IN_RANGE = 0x01, 0x02, 0x04, 0x08, 0x10
+INVERT = 0x20
+"""The eraser end in range. HID's Eraser usage is that end's tip switch (a
+touch), so a hovering eraser sets only Invert, as Microsoft's pen protocol
+has it and pen.py reads it."""
 
 
 def _penpartner(geom: Geometry) -> Reader:
@@ -311,7 +315,8 @@ def normalise(state: PenState, geom: Geometry) -> bytes:
         (TIP if state.tip else 0)
         | (BARREL if state.barrel else 0)
         | (BARREL2 if state.barrel2 else 0)
-        | (ERASER if state.eraser else 0)
+        | (ERASER if state.eraser and state.tip else 0)
+        | (INVERT if state.eraser else 0)
         | (IN_RANGE if state.in_range else 0)
     )
     return _NORMAL.pack(
@@ -351,9 +356,10 @@ def descriptor(geom: Geometry) -> bytes:
     d += _item(0x84, NORMAL_ID)  # Report ID
     d += b"\x09\x20\xa1\x00"  # Stylus, Collection (Physical)
     d += b"\x15\x00\x25\x01\x75\x01\x95\x01"  # Logical 0..1, 1 bit each
-    for usage in (0x42, 0x44, 0x5A, 0x45, 0x32):  # Tip, Barrel, Secondary Barrel, Eraser, In Range
+    # Tip, Barrel, Secondary Barrel, Eraser, In Range, Invert
+    for usage in (0x42, 0x44, 0x5A, 0x45, 0x32, 0x3C):
         d += bytes([0x09, usage]) + b"\x81\x02"
-    d += b"\x95\x03\x81\x03"  # 3 bits padding
+    d += b"\x95\x02\x81\x03"  # 2 bits padding
     d += b"\xa4\x05\x01\x65\x11\x55\x0d\x35\x00\x75\x20\x95\x01"  # Push; Desktop; cm, 10^-3; 32 bit
     d += b"\x09\x30" + _item(0x24, geom.max_x) + _item(0x44, round(geom.width_mm * 100))
     d += b"\x81\x02"
