@@ -13,6 +13,7 @@ This module holds the Wacom families, the registry (`FAMILIES`, and
 `OTD_PARSERS` for the catalogue generator) and the normalised report. The
 vendor-mode families of other makers are in families_uclogic.py (Huion,
 Gaomon and UC-Logic; XP-Pen) and families_kye_veikk.py (Genius; VEIKK).
+XP-Pen's gen-2, offset-pressure and 8-byte reports are in families_xppen.py.
 
 The Wacom layouts follow the public descriptions of these protocols in Linux's
 drivers/hid/wacom_wac.c (GPL-2.0; only the byte layouts are taken, as facts,
@@ -56,6 +57,7 @@ from collections.abc import Callable
 
 from stiction.drivers.hid import families_kye_veikk as _kye_veikk
 from stiction.drivers.hid import families_uclogic as _uclogic
+from stiction.drivers.hid import families_xppen as _xppen
 from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
 
 __all__ = [
@@ -241,6 +243,7 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "xp-pen": _uclogic.xp_pen,
     "kye": _kye_veikk.kye,
     "veikk": _kye_veikk.veikk,
+    **_xppen.FAMILIES,
 }
 
 OTD_PARSERS: dict[str, str] = {
@@ -256,8 +259,7 @@ OTD_PARSERS: dict[str, str] = {
     "UCLogicTiltReportParser": "uclogic-tilt",
     "GianoReportParser": "uclogic-tilt",
     "UCLogicV2ReportParser": "uclogic-v2",
-    "XP_PenReportParser": "xp-pen",
-    "XP_PenOffsetPressureReportParser": "xp-pen",
+    **_xppen.OTD_PARSERS,
     "GeniusReportParser": "kye",
     "VeikkV1ReportParser": "veikk",
 }
@@ -273,22 +275,20 @@ The vendor parsers: Linux's hid-uclogic reads every tablet that answers USB
 string 200 (the Huion/Gaomon pen tablets and Kamvas displays alike, whichever
 of UCLogic, UCLogicTilt, Giano or UCLogicV2 OpenTabletDriver names) with one
 v2 layout, and string 100 tablets with the v1 layout; the ones named Tilt or
-Giano are read with their tilt bytes. XP-Pen's own parser and its
-"offset pressure" variant both get the UGEE v2 layout, which hid-uclogic
-uses for the XP-Pen Deco L (28bd:0935) that OpenTabletDriver gives the
-latter; `family_for` keeps it off 8-byte reports, a different layout.
+Giano are read with their tilt bytes. XP-Pen's own parser gets the UGEE
+v2 layout, which hid-uclogic uses for the XP-Pen Deco L (28bd:0935), on
+10-16 byte reports; its "offset pressure" variant the same layout less
+the pressure offset; its 8-byte reports, gen-2 and "offset aux" parsers
+the families of families_xppen.py, whose `family_for` picks one by report
+length (OffsetAux and the 8-byte reports of UC-Logic ids are UC-Logic v1).
 Genius is hid-kye's report 0x10; VEIKK's first firmware the S640 layout.
 
 Left without a family, for want of a public description of their layout:
-XP_PenGen2 (14-byte reports, 16K pressure), XP_PenOffsetAux, GeniusV2
+GeniusV2
 (Waltop "tablet" mode), Veikk and VeikkTilt (13-byte vendor reports),
 HuionTilt, and UCLogicV1 (the XP-Pen Artist 10S, whose firmware descriptor
 describes its reports: see the recording xp-pen-artist-10s.hid).
 """
-
-XP_PEN_LENGTHS = range(10, 17)
-"""Report lengths (ID byte included) of the UGEE v2 layout: 10 bytes, or 12-16
-where the tablet appends bytes (X's high bits on the widest)."""
 
 
 def family_for(parser: str, name: str, vid: int, pid: int, length: int | None = None) -> str | None:
@@ -297,8 +297,8 @@ def family_for(parser: str, name: str, vid: int, pid: int, length: int | None = 
     `length`: OpenTabletDriver's input report length for this identifier.
     """
     family = OTD_PARSERS.get(parser)
-    if family == "xp-pen" and length not in XP_PEN_LENGTHS:
-        return None
+    if parser in _xppen.OTD_PARSERS and family is not None:
+        return _xppen.family_for(family, vid, length)
     if family == "wacom-intuos" and name.startswith(("Wacom GD-", "Wacom XD-")):
         return "wacom-intuos1"  # Intuos 1 and 2 (the kernel's INTUOS type): half resolution
     if family == "wacom-bpt" and (vid, pid) == (0x056A, 0x006A):
