@@ -8,7 +8,7 @@ OpenTabletDriver.Configurations/Parsers/XP_Pen/, and checked against the
 public dumps and other sources named with each:
 
 - ``xp-pen-gen2`` (XP_PenGen2ReportParser: Artist Pro 14/16/19/22/24 Gen2,
-  Artist 15.6 Pro V2, Deco Pro S/M/L/XL W Gen2; 14-byte reports after the
+  Artist 15.6 Pro V2, Deco Pro MW/LW/XLW Gen2; 14-byte reports after the
   output report ``02 b0 04``). Layout as XP_PenGen2ReportParser.cs (commit
   0c39dcc864f8a6654cfb25ff5ed35bc563b65f09) and XP_PenTabletGen2Report.cs
   (commit 4f49d0789a9148abe1deb53ef9e8c8821d962430) read it: report ID 2;
@@ -31,7 +31,8 @@ public dumps and other sources named with each:
   difference, the pressure offset: on the firmware this parser was written
   for, bytes 6-7 carry the pressure plus 8192 (bit 13 always set).
   OpenTabletDriver corrects it two ways: subtracting 8192 from 12-byte
-  reports (XP_PenTabletPressureOffsetOverflowReport.cs, and
+  reports (XP_PenTabletPressureOffsetOverflowReport.cs, commit
+  11bb6df7b843a2a570d2e325be0de14d2096684b, and
   XP_PenOffsetPressureTabletReport.cs at commit
   ad6ff8cc4bece3c0308f39fdfb18e60be02a383f) and masking with 0x1fff on
   10-byte ones (XP_PenPressureOffsetTiltTabletReport.cs, commit
@@ -71,7 +72,10 @@ public dumps and other sources named with each:
   ids (``uclogic_params_huion_init``), and what follows is the UC-Logic v1
   report that the ``uclogic`` family reads, frame buttons (``0xe0``) and
   all; OpenTabletDriver's parser says the same (``0xc0`` away, bit 5 the
-  pad, whose buttons it reads at byte 4). ``yiynova-mvp20u-rh.hid`` is a
+  pad, whose buttons it reads at byte 4: XP_PenOffsetAuxReportParser.cs,
+  commit f95cab2e9e29243f2981f6dfdcb3aeb6318c34a2; the kernel's list is in
+  Linux drivers/hid/hid-uclogic-params.c, ``uclogic_params_init``, GPL-2.0,
+  for 5543:004d, 0081 and 0047). ``yiynova-mvp20u-rh.hid`` is a
   real recording of that very id (5543:004d).
 """
 
