@@ -9,8 +9,10 @@ vendor modes):
   against the arithmetic that parser does.
 - ``xp-pen-offset``: reports copied from the public dump in
   OpenTabletDriver issue #3850 (XP-Pen Artist 16 2nd Gen, 28bd:094c, whose
-  pressure comes without the offset), and reports built with the 8192
-  offset of the firmware OpenTabletDriver's parser was written for.
+  pressure comes without the offset), the pressure bytes of both variants
+  as OpenTabletDriver pull request #4197 states them, and reports built
+  with the 8192 offset of the firmware OpenTabletDriver's parser was
+  written for.
 - ``xp-pen-8``: reports copied from the public dump in OpenTabletDriver
   issue #3738 (XP-Pen Star 02, report 7), and reports built from the layout
   (report 2 after ``02 b0 02``).
@@ -144,6 +146,20 @@ def test_offset_family_removes_the_8192_offset(length: int, pressure: int) -> No
     report += bytes(length - len(report))
     s = FAMILIES["xp-pen-offset"](ARTIST16)(report)
     assert s == PenState(30000, 20000, pressure, True, True, tilt_x=3, tilt_y=-3)
+
+
+@pytest.mark.parametrize(
+    ("pressure_bytes", "want"),
+    [("0020", 0), ("ff3f", 8191), ("0000", 0), ("ff1f", 8191)],
+)
+def test_offset_family_reads_both_variants_named_in_opentabletdriver_pr_4197(
+    pressure_bytes: str, want: int
+) -> None:
+    """OpenTabletDriver pull request #4197: "dirty" pressure bytes 00 20 .. ff 3f,
+    "clean" ones 00 00 .. ff 1f (bytes 6-7, little-endian)."""
+    report = bytes.fromhex("02a1" + "3075" + "204e" + pressure_bytes + "0000")
+    s = FAMILIES["xp-pen-offset"](ARTIST16)(report)
+    assert s is not None and s.pressure == want and s.tip
 
 
 def test_offset_family_drops_the_offset_bit_whatever_range_the_catalogue_states() -> None:

@@ -43,7 +43,10 @@ public dumps and other sources named with each:
   with the tip down), where the subtraction wraps to 4294965032. The
   pressure is therefore the low 13 bits of bytes 6-7, whatever the
   catalogue's range says: this is right on both firmwares, since these
-  tablets have 8192 levels, so bit 13 is never pressure.
+  tablets have 8192 levels, so bit 13 is never pressure. OpenTabletDriver
+  came to the same mask in pull request #4197 (its 0.6 branch), which names
+  the two variants: "dirty" bytes 6-7 ``00 20`` at no pressure and ``ff 3f``
+  at 8191, "clean" ones ``00 00`` and ``ff 1f``.
 - ``xp-pen-8`` (XP_PenReportParser on 8-byte reports: Star G430/G540/G640,
   Star 03 Pro/05 V3/06/06C, G540 Pro, Deco 01, Deco 03, Artist 13.3/15.6,
   after the output report ``02 b0 02``). XP_PenReportParser.cs (commit
