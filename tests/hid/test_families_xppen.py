@@ -98,23 +98,28 @@ def test_gen2_ignores_what_is_not_its_pen_report(report: bytes) -> None:
     assert FAMILIES["xp-pen-gen2"](PRO24)(report) is None
 
 
-@given(low=st.integers(0, 0x1FFF), high=st.integers(0, 1))
-def test_gen2_pressure_is_what_opentabletdrivers_arithmetic_gives(low: int, high: int) -> None:
-    """XP_PenTabletGen2Report: (bytes 6-7 - 16384) | (byte 13 bit 0) << 13."""
-    report = _gen2(1000, 1000, low | (high << 13), 0xA1)
-    raw = report[6] | (report[7] << 8)
-    otd = (raw - 16384) | ((report[13] & 1) << 13)
-    s = FAMILIES["xp-pen-gen2"](PRO24)(report)
-    assert s is not None and s.pressure == otd == low | (high << 13)
+@given(raw=st.integers(0, 0x7FFF), high=st.integers(0, 1))
+def test_gen2_pressure_is_what_opentabletdrivers_arithmetic_gives(raw: int, high: int) -> None:
+    """XP_PenTabletGen2Report.cs at commit 4f49d078: (bytes 6-7 - 16384) | (byte 13
+    bit 0) << 13, where bit 14 is set; its later revision: (bytes 6-7 & 0xBFFF) |
+    the same bit, where bit 15 is clear (the value fits 14 bits)."""
+    report = bytearray(_gen2(1000, 1000, 0, 0xA1))
+    report[6:8], report[13] = bytes(_le(raw)), high
+    s = FAMILIES["xp-pen-gen2"](PRO24)(bytes(report))
+    assert s is not None
+    later = (raw & 0xBFFF) | (high << 13)
+    assert s.pressure == later
+    if raw & 0x4000:
+        assert s.pressure == (raw - 16384) | (high << 13)
 
 
 def test_gen2_pressure_without_bit_14_does_not_wrap() -> None:
-    """Where bytes 6-7 lack the 0x4000 (OpenTabletDriver's arithmetic would go
-    negative), the reader still gives the 14-bit value."""
+    """Where bytes 6-7 lack the 0x4000 (the subtraction would go negative), the
+    reader still gives the 14-bit value, bit 13 included."""
     report = bytearray(_gen2(1, 1, 0, 0xA1))
-    report[6:8] = bytes(_le(1234))
+    report[6:8] = bytes(_le(0x2000 + 1234))
     s = FAMILIES["xp-pen-gen2"](PRO24)(bytes(report))
-    assert s is not None and s.pressure == 1234
+    assert s is not None and s.pressure == 0x2000 + 1234
 
 
 # Copied from the dump in OpenTabletDriver issue #3850 (Artist 16 2nd Gen,

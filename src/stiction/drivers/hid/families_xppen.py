@@ -19,11 +19,14 @@ public dumps and other sources named with each:
   11; tilt X and Y signed bytes at 8 and 9 (read, not passed on; a later
   revision, commit 06d1cd5892decc37c0c635e1c6290ac56dce641e, also shifts X
   and Y by four units per degree of tilt, a calibration this reader leaves
-  out). Pressure has 14 bits (16384 levels): OpenTabletDriver subtracts
+  out). Pressure has 14 bits (16384 levels): commit 4f49d078 subtracts
   16384 from bytes 6-7 and ORs in bit 0 of byte 13 as bit 13, which
-  presumes bytes 6-7 = 0x4000 + the low 13 bits; this reader takes the low
-  13 bits (bits 0-12 of bytes 6-7) and byte 13's bit, which is the same
-  value on every such report and no wrap-around where bit 14 is absent. No
+  presumes bytes 6-7 = 0x4000 + the pressure; a later revision of the same
+  file masks bit 14 off instead (``& 0xBFFF``; seen in the code index
+  without its commit). This reader takes bits 0-13 of bytes 6-7 and ORs in
+  byte 13's bit 0 as bit 13: the value of the first wherever bit 14 is set
+  (where it is not, the subtraction wraps), and of the second wherever bit
+  15 is clear (the 14-bit range ends below it). No
   dump of a gen-2 tablet in vendor mode is public that we found: tested on
   reports built from this layout.
 - ``xp-pen-offset`` (XP_PenOffsetPressureReportParser: Artist 10/12/13/16
@@ -105,6 +108,8 @@ _V1_FRAME = 0x60  # bits 5 and 6 together: a UC-Logic v1 frame report (0xe0)
 _ERASER = 0x08
 LOW13 = 0x1FFF
 """The pressure bits below the offset (8192) these tablets add."""
+LOW14 = 0x3FFF
+"""The gen-2 pressure bits in bytes 6-7, below the 0x4000 the firmware sets."""
 
 
 def _flags(b: int) -> tuple[bool, bool, bool]:
@@ -124,7 +129,7 @@ def xp_pen_gen2(geom: Geometry) -> Reader:
         if d[1] & 0xF0 != _GEN2_PEN:
             return None  # pad buttons, dials, battery
         tip, barrel, barrel2 = _flags(d[1])
-        p = (u16le(d, 6) & LOW13) | ((d[13] & 0x01) << 13)
+        p = (u16le(d, 6) & LOW14) | ((d[13] & 0x01) << 13)
         eraser = bool(d[1] & _ERASER)
         return PenState(x, y, p, tip, True, barrel, barrel2, eraser, s8(d[8]), s8(d[9]))
 
