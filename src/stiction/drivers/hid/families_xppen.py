@@ -32,7 +32,9 @@ public dumps and other sources named with each:
 - ``xp-pen-offset`` (XP_PenOffsetPressureReportParser: Artist 10/12/13/16
   2nd Gen, Deco L, Deco M). The UGEE v2 layout of ``xp-pen`` with one
   difference, the pressure offset: on the firmware this parser was written
-  for, bytes 6-7 carry the pressure plus 8192 (bit 13 always set).
+  for, bytes 6-7 carry the pressure plus 8192 (bit 13 always set; also
+  observed on an Artist 12 2nd Gen in kurikaesu/userspace-tablet-driver-
+  daemon issue #26: "sends values from 8192-16383").
   OpenTabletDriver corrects it two ways: subtracting 8192 from 12-byte
   reports (XP_PenTabletPressureOffsetOverflowReport.cs, commit
   11bb6df7b843a2a570d2e325be0de14d2096684b, and
