@@ -279,11 +279,11 @@ def test_any_bytes_give_nothing_or_a_state_within_the_geometry(family: str, data
         ("GianoReportParser", 12, "uclogic-tilt"),
         ("UCLogicV2ReportParser", 12, "uclogic-v2"),
         ("XP_PenReportParser", 10, "xp-pen"),
-        ("XP_PenReportParser", 8, None),  # the 8-byte reports are another layout
-        ("XP_PenOffsetPressureReportParser", 12, "xp-pen"),
+        ("XP_PenReportParser", 8, "xp-pen-8"),  # the 8-byte reports: another layout
+        ("XP_PenOffsetPressureReportParser", 12, "xp-pen-offset"),
         ("GeniusReportParser", 8, "kye"),
         ("VeikkV1ReportParser", 9, "veikk-v1"),  # its 9-byte vendor report, not the S640's report 2
-        ("XP_PenGen2ReportParser", 14, None),  # no public layout
+        ("XP_PenGen2ReportParser", 14, "xp-pen-gen2"),
         ("UCLogicV1ReportParser", 8, None),  # Artist 10S: its descriptor reads it
     ],
 )
@@ -312,7 +312,7 @@ def test_an_xp_pen_family_goes_to_the_vendor_interface_not_the_firmware_pen(
     on_pen = lookup(0x28BD, 0x0935, descriptor=m708)
     assert on_pen is not None and on_pen.family is None and on_pen.init_reports == ()
     on_vendor = lookup(0x28BD, 0x0935, descriptor=_VENDOR_10)
-    assert on_vendor is not None and on_vendor.family == "xp-pen"
+    assert on_vendor is not None and on_vendor.family == "xp-pen-offset"
     assert on_vendor.init_reports == (("output", bytes.fromhex("02b004")),)
     # 28bd:0907 (Star 03): its models disagree on the length, so the family
     # goes only where the descriptor reads no pen at all.

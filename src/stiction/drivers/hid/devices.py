@@ -116,6 +116,11 @@ def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
     eff = dict(r.effects)
     if own is not None and not family_fits(eff, own):
         eff.pop("family", None)
+    if "report_fixup" in eff and "family" in eff and r.origin["family"].layer == "generated":
+        # A hand-written fix-up reads the device's own descriptor; a generated
+        # family would swap that descriptor for its own. The hand-written entry
+        # wins, as everywhere (the Yiynova MVP20U+RH, 5543:004d, has both).
+        eff.pop("family")
     size_m = _pair_m(eff["size_mm"]) if "size_mm" in eff else None
     size_layer = r.origin["size_mm"].layer if "size_mm" in eff else None
     family = eff.get("family")

@@ -14,7 +14,8 @@ This module holds the Wacom families, the registry (`FAMILIES`, and
 vendor-mode families of other makers are in families_uclogic.py (Huion,
 Gaomon and UC-Logic; XP-Pen) and families_kye_veikk.py (Genius; VEIKK).
 VEIKK's 13-byte reports are in families_veikk.py, Waltop's (Genius V2) in
-families_waltop.py.
+families_waltop.py, XP-Pen's gen-2, offset-pressure and 8-byte reports in
+families_xppen.py.
 
 The Wacom layouts follow the public descriptions of these protocols in Linux's
 drivers/hid/wacom_wac.c (GPL-2.0; only the byte layouts are taken, as facts,
@@ -60,6 +61,7 @@ from stiction.drivers.hid import families_kye_veikk as _kye_veikk
 from stiction.drivers.hid import families_uclogic as _uclogic
 from stiction.drivers.hid import families_veikk as _veikk
 from stiction.drivers.hid import families_waltop as _waltop
+from stiction.drivers.hid import families_xppen as _xppen
 from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
 
 __all__ = [
@@ -81,6 +83,10 @@ NORMAL_ID = 0x02
 
 _NORMAL = struct.Struct("<BBIIH")  # id, flags, x, y, pressure
 TIP, BARREL, BARREL2, ERASER, IN_RANGE = 0x01, 0x02, 0x04, 0x08, 0x10
+INVERT = 0x20
+"""The eraser end in range. HID's Eraser usage is that end's tip switch (a
+touch), so a hovering eraser sets only Invert, as Microsoft's pen protocol
+has it and pen.py reads it."""
 
 
 def _penpartner(geom: Geometry) -> Reader:
@@ -246,6 +252,7 @@ FAMILIES: dict[str, Callable[[Geometry], Reader]] = {
     "veikk-vk-tilt": _veikk.veikk_vk_tilt,
     "waltop": _waltop.waltop,
     "veikk-v1": _veikk.veikk_v1,
+    **_xppen.FAMILIES,
 }
 
 OTD_PARSERS: dict[str, str] = {
@@ -261,8 +268,7 @@ OTD_PARSERS: dict[str, str] = {
     "UCLogicTiltReportParser": "uclogic-tilt",
     "GianoReportParser": "uclogic-tilt",
     "UCLogicV2ReportParser": "uclogic-v2",
-    "XP_PenReportParser": "xp-pen",
-    "XP_PenOffsetPressureReportParser": "xp-pen",
+    **_xppen.OTD_PARSERS,
     "GeniusReportParser": "kye",
     "VeikkV1ReportParser": "veikk-v1",
     "VeikkA15ReportParser": "veikk-v1",
@@ -284,10 +290,12 @@ The vendor parsers: Linux's hid-uclogic reads every tablet that answers USB
 string 200 (the Huion/Gaomon pen tablets and Kamvas displays alike, whichever
 of UCLogic, UCLogicTilt, Giano or UCLogicV2 OpenTabletDriver names) with one
 v2 layout, and string 100 tablets with the v1 layout; the ones named Tilt or
-Giano are read with their tilt bytes. XP-Pen's own parser and its
-"offset pressure" variant both get the UGEE v2 layout, which hid-uclogic
-uses for the XP-Pen Deco L (28bd:0935) that OpenTabletDriver gives the
-latter; `family_for` keeps it off 8-byte reports, a different layout.
+Giano are read with their tilt bytes. XP-Pen's own parser gets the UGEE
+v2 layout, which hid-uclogic uses for the XP-Pen Deco L (28bd:0935), on
+10-16 byte reports; its "offset pressure" variant the same layout less
+the pressure offset; its 8-byte reports, gen-2 and "offset aux" parsers
+the families of families_xppen.py, whose `family_for` picks one by report
+length (OffsetAux and the 8-byte reports of UC-Logic ids are UC-Logic v1).
 Genius is hid-kye's report 0x10. VEIKK's parsers (VeikkV1 and VeikkA15:
 9-byte reports; Veikk and VeikkTilt: 13 bytes, all ID 9 with sub-type 0x41)
 and GeniusV2 (Waltop's "tablet" mode) have no kernel driver: their families
@@ -298,19 +306,13 @@ read the UC-Logic v2 report 8 (X, Y, pressure, tilt at hid-uclogic's
 offsets; X and Y only 16-bit, which all their tablets' ranges fit, and the
 frame reports ignored), hence ``uclogic-v2``.
 
-Left without a family, for want of a public description of their layout:
-XP_PenGen2 (14-byte reports, 16K pressure), XP_PenOffsetAux, and UCLogicV1
-(the XP-Pen Artist 10S, whose firmware descriptor
-describes its reports: see the recording xp-pen-artist-10s.hid).
+UCLogicV1 (the XP-Pen Artist 10S) needs no family: its firmware descriptor
+describes its reports (see the recording xp-pen-artist-10s.hid).
 """
 
 NO_IN_RANGE: frozenset[str] = frozenset({"uclogic-v2", "waltop"})
 """Families whose layout has no in-range bit: the pen counts as gone 100 ms
 after its last report (ReportStream's proximity timeout), as hid-uclogic does."""
-
-XP_PEN_LENGTHS = range(10, 17)
-"""Report lengths (ID byte included) of the UGEE v2 layout: 10 bytes, or 12-16
-where the tablet appends bytes (X's high bits on the widest)."""
 
 
 def family_for(parser: str, name: str, vid: int, pid: int, length: int | None = None) -> str | None:
@@ -319,8 +321,8 @@ def family_for(parser: str, name: str, vid: int, pid: int, length: int | None = 
     `length`: OpenTabletDriver's input report length for this identifier.
     """
     family = OTD_PARSERS.get(parser)
-    if family == "xp-pen" and length not in XP_PEN_LENGTHS:
-        return None
+    if parser in _xppen.OTD_PARSERS and family is not None:
+        return _xppen.family_for(family, vid, length)
     if family == "wacom-intuos" and name.startswith(("Wacom GD-", "Wacom XD-")):
         return "wacom-intuos1"  # Intuos 1 and 2 (the kernel's INTUOS type): half resolution
     if family == "wacom-bpt" and (vid, pid) == (0x056A, 0x006A):
@@ -337,7 +339,8 @@ def normalise(state: PenState, geom: Geometry) -> bytes:
         (TIP if state.tip else 0)
         | (BARREL if state.barrel else 0)
         | (BARREL2 if state.barrel2 else 0)
-        | (ERASER if state.eraser else 0)
+        | (ERASER if state.eraser and state.tip else 0)
+        | (INVERT if state.eraser else 0)
         | (IN_RANGE if state.in_range else 0)
     )
     return _NORMAL.pack(
@@ -377,9 +380,10 @@ def descriptor(geom: Geometry) -> bytes:
     d += _item(0x84, NORMAL_ID)  # Report ID
     d += b"\x09\x20\xa1\x00"  # Stylus, Collection (Physical)
     d += b"\x15\x00\x25\x01\x75\x01\x95\x01"  # Logical 0..1, 1 bit each
-    for usage in (0x42, 0x44, 0x5A, 0x45, 0x32):  # Tip, Barrel, Secondary Barrel, Eraser, In Range
+    # Tip, Barrel, Secondary Barrel, Eraser, In Range, Invert
+    for usage in (0x42, 0x44, 0x5A, 0x45, 0x32, 0x3C):
         d += bytes([0x09, usage]) + b"\x81\x02"
-    d += b"\x95\x03\x81\x03"  # 3 bits padding
+    d += b"\x95\x02\x81\x03"  # 2 bits padding
     d += b"\xa4\x05\x01\x65\x11\x55\x0d\x35\x00\x75\x20\x95\x01"  # Push; Desktop; cm, 10^-3; 32 bit
     d += b"\x09\x30" + _item(0x24, geom.max_x) + _item(0x44, round(geom.width_mm * 100))
     d += b"\x81\x02"
