@@ -1,23 +1,25 @@
-"""The array path (columns.py) against the frame assembler: same samples, same state.
+"""The compiled path (columns.py) against the frame assembler: same samples, same state.
 
-columns.samples() turns a read()'s bytes into PenSamples with numpy and
-leaves the FrameAssembler as feed_many would; DeviceSource.samples() and a
-fast replay use it. Here it eats the same events as the reference --
+columns.samples() turns a read()'s bytes into PenSamples in one compiled
+pass and leaves the FrameAssembler as feed_many would; DeviceSource.samples()
+(long reads) and a fast replay use it. Here it eats the same events as the reference --
 FrameAssembler.feed_many + frame_samples, batch by batch -- and must give
 the same samples (compared by repr, so -0.0 against 0.0 would show), the
 same counters and the same final finish(): on every recording the benchmark
 times, cut into batches at many points, with SYN_DROPPED put in (the array
-path declines such batches and the assembler takes over, so the hand-over
+path refuses such batches and the assembler takes over, so the hand-over
 is tested too), and on random streams from hypothesis, garbage included.
 The replay source is compared with the frame-by-frame replay it replaced,
-pause compression included. The last tests break the array path on purpose
-and check that the comparison notices.
+pause compression included. The last tests break the path on purpose, six
+ways, and check that the comparison notices.
 """
 
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pytest
@@ -145,6 +147,7 @@ def test_read_samples_takes_either_path(evdev_data: Path) -> None:
     rec = load(evdev_data / "wacom-intuos4-6x9.desc")
     events = list(rec.events)
     frame_ends = [i + 1 for i, ev in enumerate(events) if ev[2] == e.EV_SYN and ev[3] == 0]
+    columns.warm()
     for cuts in ([], frame_ends, frame_ends[::40]):
         batches = _batches(events, cuts)
         asm, units = FrameAssembler(rec.description), SurfaceUnits(rec.description)
@@ -214,53 +217,87 @@ def test_compressed_times_match_the_compressor_call_by_call() -> None:
     assert (many.prev, many.shift, many.logged) == (one.prev, one.shift, one.logged)
 
 
-def _tool_lost(real: object) -> object:
-    return lambda keys: 0  # no tool key seen: the pen never comes into range
+def _no_tool(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every tool key names no tool: the pen never comes into range."""
+    monkeypatch.setattr(columns, "_TOOL_OF", np.zeros_like(columns._TOOL_OF))
 
 
-def _ended_in_range(real: object) -> object:
-    def build(*args: object) -> list[PenSample]:
-        args = list(args)  # type: ignore[assignment]
-        args[9] = [True] * len(args[9])  # type: ignore[index,arg-type]
-        return real(*args)  # type: ignore[operator,no-any-return]
+def _ended_in_range(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Ended contacts keep in_range=True."""
+    real = columns._build
 
-    return build
+    def build(times: list[float], out_i: np.ndarray, *rest: Any) -> list[PenSample]:
+        out_i[columns.k.O_IN, :] = 1
+        return real(times, out_i, *rest)
+
+    monkeypatch.setattr(columns, "_build", build)
+
+
+def _tail_lost(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The events after the batch's last SYN_REPORT are not handed to the assembler."""
+    real = columns._finish
+
+    def finish(
+        asm: FrameAssembler, down: np.ndarray, counts: np.ndarray, res: np.ndarray, q: np.ndarray
+    ) -> None:
+        real(asm, down, counts, res, q[: int(res[1])])
+
+    monkeypatch.setattr(columns, "_finish", finish)
+
+
+def _buttons_shifted(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Every button one bit too high (right reported as middle)."""
+    monkeypatch.setattr(columns, "_BUTTON_BITS", columns._BUTTON_BITS * 2)
 
 
 @pytest.mark.parametrize(
-    ("name", "target", "broken"),
+    ("name", "breaks", "cut"),
     [
-        ("wacom-intuos4-6x9.desc", "_key_tool", _tool_lost),
-        ("wacom-cintiq-12wx.evemu", "_build", _ended_in_range),
-        ("synaptics-touchpad.hp8470p.desc", "_build", _ended_in_range),
+        ("wacom-intuos4-6x9.desc", _no_tool, False),
+        ("wacom-cintiq-12wx.evemu", _ended_in_range, False),
+        ("synaptics-touchpad.hp8470p.desc", _ended_in_range, False),
+        ("uc-logic-wp5540u-pen.evemu", _tail_lost, True),
+        ("elantech-touchpad.samsung-700z3a.evemu", _tail_lost, True),
+        ("cypress-trackpad.two-finger-press.evemu", _buttons_shifted, False),
     ],
-    ids=["pen-tool-lost", "pen-ended-in-range", "touchpad-ended-in-range"],
+    ids=[
+        "pen-tool-lost",
+        "pen-ended-in-range",
+        "touchpad-ended-in-range",
+        "pen-tail-lost",
+        "touchpad-tail-lost",
+        "touchpad-buttons-shifted",
+    ],
 )
 def test_the_comparison_catches_a_broken_array_path(
-    evdev_data: Path, monkeypatch: pytest.MonkeyPatch, name: str, target: str, broken: object
+    evdev_data: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    name: str,
+    breaks: Callable[[pytest.MonkeyPatch], None],
+    cut: bool,
 ) -> None:
     """The array path, broken on purpose, must disagree with the assembler."""
     rec = load(evdev_data / name)
     desc = _desc(name, rec)
     events = list(rec.events)
-    same_both_ways(desc, events, [])
-    monkeypatch.setattr(columns, target, broken(getattr(columns, target)))  # type: ignore[operator]
+    # cut=True: batches that end mid-frame (their tails go to the assembler)
+    cuts = [k for k in range(100, len(events), 100)] if cut else []
+    same_both_ways(desc, events, cuts)
+    breaks(monkeypatch)
     with pytest.raises(AssertionError):
-        same_both_ways(desc, events, [])
+        same_both_ways(desc, events, cuts)
 
 
-def test_the_comparison_catches_a_wrong_position(
-    evdev_data: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
-    """Slot values looked up a few events early (missing the frame's last changes)."""
-    rec = load(evdev_data / "elantech-touchpad.samsung-700z3a.evemu")
-    events = list(rec.events)
-    same_both_ways(rec.description, events, [])
-    real = columns._Index.get
-
-    def early(self: columns._Index, key: np.ndarray, at: np.ndarray) -> np.ndarray:
-        return real(self, key, at - 3)
-
-    monkeypatch.setattr(columns._Index, "get", early)
-    with pytest.raises(AssertionError):
-        same_both_ways(rec.description, events, [])
+def test_live_reads_take_the_loop_only_once_compiled(monkeypatch: pytest.MonkeyPatch) -> None:
+    """compile=False (DeviceSource's reads) never compiles: a reader must not stall."""
+    pen = DESCS["pen"]
+    stroke = [(0, i, e.EV_ABS, e.ABS_X, 200 + i) for i in range(60)]
+    stroke = [ev for x in stroke for ev in (x, (0, x[1], e.EV_SYN, e.SYN_REPORT, 0))]
+    data = b"".join(INPUT_EVENT.pack(*ev) for ev in stroke)
+    units = SurfaceUnits(pen)
+    monkeypatch.setattr(columns, "compiled", lambda: False)
+    assert columns.samples(FrameAssembler(pen), units, data, compile=False) is None
+    monkeypatch.undo()
+    columns.warm()
+    assert columns.compiled()
+    assert columns.samples(FrameAssembler(pen), units, data, compile=False) is not None

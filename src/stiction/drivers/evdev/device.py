@@ -62,18 +62,22 @@ _READ_SIZE = INPUT_EVENT.size * 256
 _COLUMNS_MIN_BYTES = INPUT_EVENT.size * columns.MIN_EVENTS
 
 
-def read_samples(asm: FrameAssembler, units: SurfaceUnits, data: bytes) -> list[PenSample]:
+def read_samples(
+    asm: FrameAssembler, units: SurfaceUnits, data: bytes, compile: bool = False
+) -> list[PenSample]:
     """The samples of the frames one read()'s bytes (whole events) complete.
 
     DeviceSource.samples() calls this for every read(); the benchmark times it.
-    A read of many events (a reader that fell behind, a replay) is decoded with
-    numpy in one go (columns.py); a short one -- the usual frame or two of a
-    live device -- or one the array path declines goes event by event through
-    the assembler and `frame_samples`. Both give the same samples
+    A read of many events (a reader that fell behind) goes through the
+    compiled loop (columns.py) -- once it is compiled: compile=False, the
+    default, never makes a live reader wait seconds for numba (a replay or
+    `columns.warm()` compiles it). A short read -- the usual frame or two of
+    a live device -- or one the loop refuses goes event by event through the
+    assembler and `frame_samples`. Both give the same samples
     (tests/evdev/test_evdev_columns.py).
     """
     if len(data) >= _COLUMNS_MIN_BYTES:
-        made = columns.samples(asm, units, data)
+        made = columns.samples(asm, units, data, compile=compile)
         if made is not None:
             return made
     frames = asm.feed_many(list(INPUT_EVENT.iter_unpack(data)))
