@@ -127,6 +127,66 @@ def test_array_path_equals_the_assembler_on_random_streams(
     same_both_ways(desc, stream, cuts)
 
 
+#: multi-touch events mostly: slot switches and tracking ids that collide
+_mt_codes = st.sampled_from(
+    [
+        (e.EV_ABS, e.ABS_MT_SLOT),
+        (e.EV_ABS, e.ABS_MT_SLOT),
+        (e.EV_ABS, e.ABS_MT_TRACKING_ID),
+        (e.EV_ABS, e.ABS_MT_TRACKING_ID),
+        (e.EV_ABS, e.ABS_MT_TRACKING_ID),
+        (e.EV_ABS, e.ABS_MT_POSITION_X),
+        (e.EV_ABS, e.ABS_MT_PRESSURE),
+        (e.EV_ABS, e.ABS_MT_TOOL_TYPE),
+        (e.EV_ABS, e.ABS_MT_DISTANCE),
+        (e.EV_KEY, e.BTN_LEFT),
+        (e.EV_SYN, e.SYN_REPORT),
+        (e.EV_SYN, e.SYN_REPORT),
+    ]
+)
+
+
+@settings(max_examples=200, deadline=None)
+@given(
+    events=st.lists(
+        st.tuples(st.one_of(_codes, _mt_codes), st.integers(-1, 3)), min_size=40, max_size=300
+    ),
+    cuts=st.lists(st.integers(0, 300), max_size=4),
+)
+def test_array_path_equals_the_assembler_on_small_values(
+    events: list[tuple[tuple[int, int], int]], cuts: list[int]
+) -> None:
+    """Values in -1..3, slot numbers in range: tracking ids that collide (reused,
+    replaced), palms, hover, bad key values -- the multi-touch rules, in the loop."""
+    slot = (e.EV_ABS, e.ABS_MT_SLOT)
+    stream = [(0, i, t, c, v % 3 if (t, c) == slot else v) for i, ((t, c), v) in enumerate(events)]
+    stream = [ev for ev in stream if not (ev[2] == e.EV_SYN and ev[3] == e.SYN_DROPPED)]
+    for desc in DESCS.values():
+        same_both_ways(desc, stream, cuts)
+
+
+def test_colliding_tracking_ids_in_the_loop() -> None:
+    """Two slots given one id (the second is dropped), a new id without -1 first."""
+    pad = DESCS["touchpad"]
+    slot, tid, x = e.ABS_MT_SLOT, e.ABS_MT_TRACKING_ID, e.ABS_MT_POSITION_X
+    frames = [
+        [(slot, 0), (tid, 1), (x, 5), (slot, 1), (tid, 1), (x, 7)],  # 1 reused in slot 1
+        [(slot, 0), (tid, 2), (x, 6)],  # 1 replaced by 2 without -1: 1 ends
+        [(slot, 1), (tid, 3), (x, 9)],
+        [(slot, 0), (tid, -1), (slot, 1), (tid, -1)],
+    ]
+    stream = [
+        ev
+        for n, frame in enumerate(frames)
+        for ev in [*((0, n, e.EV_ABS, c, v) for c, v in frame), (0, n, e.EV_SYN, 0, 0)]
+    ]
+    assert same_both_ways(pad, stream, []) == 1
+    asm = FrameAssembler(pad)
+    columns.samples(asm, SurfaceUnits(pad), b"".join(INPUT_EVENT.pack(*ev) for ev in stream))
+    assert asm.stats["tracking_id_reused"] == 1
+    assert asm.stats["tracking_id_replaced"] == 1
+
+
 def test_random_streams_reach_the_array_path() -> None:
     """The property above is not vacuous: a plain pen stroke is taken whole."""
     pen = DESCS["pen"]
