@@ -70,7 +70,7 @@ def reference(desc: DeviceDescription, batches: list[list[Event]]) -> object:
 
 
 def columnar(desc: DeviceDescription, batches: list[list[Event]]) -> tuple[object, int]:
-    """The array path wherever it accepts a batch; the number of batches it took."""
+    """The compiled path wherever it accepts a batch; the number of batches it took."""
     asm, units = FrameAssembler(desc), SurfaceUnits(desc)
     out: list[PenSample] = []
     taken = 0
@@ -93,13 +93,13 @@ def same_both_ways(desc: DeviceDescription, events: list[Event], cuts: list[int]
 
 
 @pytest.mark.parametrize("name", RECORDINGS)
-def test_array_path_equals_the_assembler_on_recordings(evdev_data: Path, name: str) -> None:
+def test_compiled_path_equals_the_assembler_on_recordings(evdev_data: Path, name: str) -> None:
     rec = load(evdev_data / name)
     desc = _desc(name, rec)
     events = list(rec.events)
     assert same_both_ways(desc, events, []) == 1  # the whole recording at once
     frame_ends = [i + 1 for i, ev in enumerate(events) if ev[2] == e.EV_SYN and ev[3] == 0]
-    # batches of whole frames, of every length (the array path takes each)
+    # batches of whole frames, of every length (the compiled path takes each)
     cuts = [frame_ends[k * (k + 1) // 2] for k in range(60) if k * (k + 1) // 2 < len(frame_ends)]
     assert same_both_ways(desc, events, cuts) == len(_batches(events, cuts))
     # batches cut mid-frame, and SYN_DROPPED: declined batches go through the assembler
@@ -114,7 +114,7 @@ def test_array_path_equals_the_assembler_on_recordings(evdev_data: Path, name: s
     cuts=st.lists(st.integers(0, 200), max_size=6),
     drops=st.booleans(),
 )
-def test_array_path_equals_the_assembler_on_random_streams(
+def test_compiled_path_equals_the_assembler_on_random_streams(
     desc: DeviceDescription,
     events: list[tuple[tuple[int, int], int]],
     cuts: list[int],
@@ -122,7 +122,7 @@ def test_array_path_equals_the_assembler_on_random_streams(
 ) -> None:
     # input_event's fields: u16 type and code, s32 value (what a read() can hold)
     stream = [(0, i, t, c, v) for i, ((t, c), v) in enumerate(events)]
-    if not drops:  # most streams without SYN_DROPPED, so that the array path runs
+    if not drops:  # most streams without SYN_DROPPED, so that the compiled path runs
         stream = [ev for ev in stream if not (ev[2] == e.EV_SYN and ev[3] == e.SYN_DROPPED)]
     same_both_ways(desc, stream, cuts)
 
@@ -153,7 +153,7 @@ _mt_codes = st.sampled_from(
     ),
     cuts=st.lists(st.integers(0, 300), max_size=4),
 )
-def test_array_path_equals_the_assembler_on_small_values(
+def test_compiled_path_equals_the_assembler_on_small_values(
     events: list[tuple[tuple[int, int], int]], cuts: list[int]
 ) -> None:
     """Values in -1..3, slot numbers in range: tracking ids that collide (reused,
@@ -187,7 +187,7 @@ def test_colliding_tracking_ids_in_the_loop() -> None:
     assert asm.stats["tracking_id_replaced"] == 1
 
 
-def test_random_streams_reach_the_array_path() -> None:
+def test_random_streams_reach_the_compiled_path() -> None:
     """The property above is not vacuous: a plain pen stroke is taken whole."""
     pen = DESCS["pen"]
     stroke: list[Event] = [(0, 0, e.EV_KEY, e.BTN_TOOL_PEN, 1)]
@@ -218,7 +218,7 @@ def test_read_samples_takes_either_path(evdev_data: Path) -> None:
 
 
 def _old_replay(src: playback.ReplaySource) -> list[str]:
-    """The frame-by-frame replay the array path replaced (its pause compression)."""
+    """The frame-by-frame replay the compiled path replaced (its pause compression)."""
     asm = FrameAssembler(src.description)
     compress = GapCompressor(src.name)
     out = []
@@ -329,14 +329,14 @@ def _buttons_shifted(monkeypatch: pytest.MonkeyPatch) -> None:
         "touchpad-buttons-shifted",
     ],
 )
-def test_the_comparison_catches_a_broken_array_path(
+def test_the_comparison_catches_a_broken_compiled_path(
     evdev_data: Path,
     monkeypatch: pytest.MonkeyPatch,
     name: str,
     breaks: Callable[[pytest.MonkeyPatch], None],
     cut: bool,
 ) -> None:
-    """The array path, broken on purpose, must disagree with the assembler."""
+    """The compiled path, broken on purpose, must disagree with the assembler."""
     rec = load(evdev_data / name)
     desc = _desc(name, rec)
     events = list(rec.events)

@@ -26,8 +26,8 @@ evdev's C reader does the same unpacking):
 - per read: the live device's path, `DeviceSource.samples()`'s
   `read_samples()` on each read(), with the bytes cut into one read() per
   frame as a device at its report rate delivers them: too few events for
-  the arrays to pay, so the frame assembler and `frame_samples()` per frame
-  (a reader that falls behind gets longer reads, which take the arrays).
+  the compiled loop to pay, so the frame assembler and `frame_samples()` per frame
+  (a reader that falls behind gets longer reads, which take the loop).
 
 For transparency the same comparison is also made from ready-made
 InputEvent objects (both paths then skip the wrapping; stiction unpacks

@@ -89,12 +89,13 @@ class ReplaySource(EvdevSourceBase):
             stats["samples"] += len(made)
 
     def _batches(self, asm: FrameAssembler, compress: GapCompressor) -> Iterator[list[PenSample]]:
-        """As fast as possible: whole chunks of frames decoded at once (columns.py).
+        """As fast as possible: each chunk of frames in one compiled pass (columns.py).
 
         Chunks end at a SYN_REPORT, so each starts on a frame boundary; a chunk
-        the array path declines (SYN_DROPPED in it, a short one) goes frame by
-        frame, as `_paced` does. Same samples either way
-        (tests/evdev/test_evdev_columns.py)."""
+        the compiled loop refuses (SYN_DROPPED in it, a short one) goes frame
+        by frame, as `_paced` does. Same samples either way
+        (tests/evdev/test_evdev_columns.py). The first chunk compiles the loop
+        (seconds once, then loaded from numba's cache)."""
         events = self.recording.events
         data = self._packed()
         units = self._units
@@ -133,7 +134,10 @@ class ReplaySource(EvdevSourceBase):
         return ends
 
     def _packed(self) -> bytes | None:
-        """The recording as a read() would return it (made once; None: not packable)."""
+        """The recording as read() would return it, packed at the first fast replay.
+
+        None when it cannot be packed (values beyond input_event's fields, or
+        no compiled loop on this platform): then every chunk goes frame by frame."""
         if self._data is None and columns.AVAILABLE:
             try:
                 self._data = np.array(self.recording.events, dtype=columns.EVENT).tobytes()
