@@ -355,9 +355,28 @@ def test_live_reads_take_the_loop_only_once_compiled(monkeypatch: pytest.MonkeyP
     stroke = [ev for x in stroke for ev in (x, (0, x[1], e.EV_SYN, e.SYN_REPORT, 0))]
     data = b"".join(INPUT_EVENT.pack(*ev) for ev in stroke)
     units = SurfaceUnits(pen)
-    monkeypatch.setattr(columns, "compiled", lambda: False)
+    monkeypatch.setattr(columns, "compiled", lambda kind=None: False)
     assert columns.samples(FrameAssembler(pen), units, data, compile=False) is None
     monkeypatch.undo()
     columns.warm()
     assert columns.compiled()
     assert columns.samples(FrameAssembler(pen), units, data, compile=False) is not None
+
+
+def test_a_failing_compiler_falls_back_to_the_assembler(
+    evdev_data: Path, monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    """numba failing on some machine costs speed, never samples: the loop is
+    switched off for the process and the replay goes frame by frame."""
+
+    def broken(*args: object) -> int:
+        raise RuntimeError("no LLVM here")
+
+    monkeypatch.setattr(columns, "kernels", lambda: {"single": broken, "multitouch": broken})
+    monkeypatch.setattr(columns, "AVAILABLE", True)
+    rec = load(evdev_data / "wacom-intuos4-6x9.desc")
+    src = playback.ReplaySource(rec)
+    got = [repr(s) for s in src.samples()]
+    assert columns.AVAILABLE is False
+    assert "failed; reading event by event" in caplog.text
+    assert got == _old_replay(src)

@@ -32,6 +32,7 @@ they are compiled, so that a live reader never stalls on it.
 
 from __future__ import annotations
 
+import logging
 import struct
 import threading
 from collections.abc import Callable
@@ -95,12 +96,15 @@ _X, _Y, _P, _TX, _TY = (
 
 Retime = Callable[[np.ndarray], np.ndarray]
 
+log = logging.getLogger(__name__)
+
 _lock = threading.Lock()
 _kernels: dict[str, Any] = {}
 
 
 def kernels() -> dict[str, Any]:
-    """The compiled loops (compiled, or loaded from numba's cache, at the first call)."""
+    """The loops as numba dispatchers (each compiled, or loaded from numba's cache,
+    at its first call)."""
     with _lock:
         if not _kernels:
             from stiction.sim.numba_cache import njit_cached
@@ -110,9 +114,23 @@ def kernels() -> dict[str, Any]:
         return _kernels
 
 
-def compiled() -> bool:
-    """Have both loops been compiled (or loaded) in this process?"""
-    return len(_kernels) == 2 and all(fn.signatures for fn in _kernels.values())
+def compiled(kind: str | None = None) -> bool:
+    """Has the loop for `kind` ("single", "multitouch"; None: both) been compiled
+    (or loaded) in this process?"""
+    names = ("single", "multitouch") if kind is None else (kind,)
+    return all(n in _kernels and bool(_kernels[n].signatures) for n in names)
+
+
+def _run(kind: str, *args: Any) -> int:
+    """One loop over one batch; -6 when numba fails (then never again in this process)."""
+    global AVAILABLE
+    try:
+        n: int = kernels()[kind](*args)
+    except Exception:  # a numba that cannot compile here: the per-event path still works
+        log.exception("evdev: the compiled %s loop failed; reading event by event", kind)
+        AVAILABLE = False
+        return -6
+    return n
 
 
 def warm() -> None:
@@ -239,8 +257,10 @@ def samples(
     without contacts too. compile=False: None unless the loops are compiled."""
     if not AVAILABLE or asm._dropping or asm._n_pending or len(data) % EVENT.itemsize:
         return None
-    if not compile and not compiled():
+    if not compile and not compiled("multitouch" if asm.multitouch else "single"):
         return None
+    if type(data) is not bytes:
+        data = bytes(data)  # read-only arrays: one compiled signature for every caller
     n_ev = len(data) // EVENT.itemsize
     if n_ev == 0:
         return None
@@ -293,7 +313,8 @@ def _single(
     n_ev = q.shape[0]
     out_i = np.empty((7, n_ev), np.int64)
     out_f = np.empty((5, n_ev))
-    n = kernels()["single"](
+    n = _run(
+        "single",
         q,
         h,
         w,
@@ -407,7 +428,8 @@ def _multitouch(
     while True:
         out_i = np.empty((7, room), np.int64)
         out_f = np.empty((5, room))
-        n = kernels()["multitouch"](
+        n = _run(
+            "multitouch",
             q,
             h,
             w,
