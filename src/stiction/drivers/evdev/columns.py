@@ -107,10 +107,13 @@ def kernels() -> dict[str, Any]:
     at its first call)."""
     with _lock:
         if not _kernels:
-            from stiction.sim.numba_cache import njit_cached
+            import numba
 
-            _kernels["single"] = njit_cached(k.single)
-            _kernels["multitouch"] = njit_cached(k.multitouch)
+            # numba's own cache: beside this package, or the user's cache folder
+            # when that is not writable; keyed by columns_kernel.py's stamp, which
+            # is enough here: the loops call nothing outside that file.
+            _kernels["single"] = numba.njit(cache=True)(k.single)
+            _kernels["multitouch"] = numba.njit(cache=True)(k.multitouch)
         return _kernels
 
 

@@ -1,7 +1,8 @@
 """The compiled loops of columns.py: a read()'s events -> sample columns, per device kind.
 
 Plain Python written for numba (columns.py compiles them with
-sim.numba_cache.njit_cached): each walks the events once, applies them to
+numba.njit(cache=True); they call nothing outside this file, so numba's
+stamp of this file keys the cache soundly): each walks the events once, applies them to
 the device state exactly as FrameAssembler.feed_many_general does (same
 counters, same key, slot and tracking-id rules), and at every SYN_REPORT
 writes that frame's samples -- ended contacts first, from the previous
