@@ -35,7 +35,7 @@ from typing import Any
 
 from evdev import ecodes
 
-from stiction.drivers.evdev import sizes
+from stiction.drivers.evdev import columns, sizes
 from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
@@ -59,6 +59,34 @@ def _close_fds(*fds: int) -> None:
 #: __kernel_ulong_t on every Linux ABI but x32), u16 type, u16 code, s32 value
 INPUT_EVENT = struct.Struct("@llHHi")
 _READ_SIZE = INPUT_EVENT.size * 256
+_COLUMNS_MIN_BYTES = INPUT_EVENT.size * columns.MIN_EVENTS
+
+
+def read_samples(
+    asm: FrameAssembler, units: SurfaceUnits, data: bytes, compile: bool = False
+) -> list[PenSample]:
+    """The samples of the frames one read()'s bytes (whole events) complete.
+
+    DeviceSource.samples() calls this for every read(); the benchmark times it.
+    A read of many events (a reader that fell behind) goes through the
+    compiled loop (columns.py) -- once it is compiled: compile=False, the
+    default, never makes a live reader wait seconds for numba (a replay or
+    `columns.warm()` compiles it). A short read -- the usual frame or two of
+    a live device -- or one the loop refuses goes event by event through the
+    assembler and `frame_samples`. Both give the same samples
+    (tests/evdev/test_evdev_columns.py).
+    """
+    if len(data) >= _COLUMNS_MIN_BYTES:
+        made = columns.samples(asm, units, data, compile=compile)
+        if made is not None:
+            return made
+    frames = asm.feed_many(list(INPUT_EVENT.iter_unpack(data)))
+    if len(frames) == 1:
+        return frame_samples(units, frames[0])
+    out: list[PenSample] = []
+    for f in frames:
+        out += frame_samples(units, f)
+    return out
 
 
 class DeviceGone(DeviceError):
@@ -201,12 +229,25 @@ class DeviceSource(EvdevSourceBase):
     # -- SampleSource --------------------------------------------------------
 
     def samples(self) -> Iterator[PenSample]:
+        """Each read()'s samples (`read_samples`); every contact ends before DeviceGone."""
         sizes.require(self.description)
         units = self._units
-        for frame in self.frames():
-            for s in frame_samples(units, frame):
-                self._stats["samples"] += 1
-                yield s
+        asm = self._new_assembler()
+        stats = self._stats
+        data = b""
+        try:
+            for data in self._reads():
+                made = read_samples(asm, units, data)
+                stats["samples"] += len(made)
+                yield from made
+        except DeviceGone:
+            last = INPUT_EVENT.unpack_from(data, len(data) - INPUT_EVENT.size) if data else (0, 0)
+            end = asm.finish(last[0], last[1])
+            if end is not None:
+                made = frame_samples(units, end)
+                stats["samples"] += len(made)
+                yield from made
+            raise
 
     def close(self) -> None:
         """Idempotent; wakes a blocked reader, which then releases the device."""
@@ -222,7 +263,12 @@ class DeviceSource(EvdevSourceBase):
     # -- reading -------------------------------------------------------------
 
     def batches(self) -> Iterator[list[Event]]:
-        """The raw events as each read() returns them (for `stiction evdev record`).
+        """The raw events as each read() returns them (for `stiction evdev record`)."""
+        for data in self._reads():
+            yield list(INPUT_EVENT.iter_unpack(data))
+
+    def _reads(self) -> Iterator[bytes]:
+        """Each read()'s whole `struct input_event`s, as bytes.
 
         The node is read directly (`os.read` on python-evdev's fd, unpacked
         with `struct`), not through python-evdev's read(): that one builds a
@@ -266,9 +312,8 @@ class DeviceSource(EvdevSourceBase):
                     self._stats["partial_reads"] += 1
                 if not whole:
                     continue
-                batch = list(INPUT_EVENT.iter_unpack(data[:whole] if carry else data))
-                self._stats["events"] += len(batch)
-                yield batch
+                self._stats["events"] += whole // size
+                yield data[:whole] if carry else data
         finally:
             with self._lock:
                 self._reading = False
@@ -277,11 +322,15 @@ class DeviceSource(EvdevSourceBase):
                 else:
                     self._ungrab()
 
-    def frames(self) -> Iterator[Frame]:
-        """Frames as the kernel completes them; DeviceError when the device goes away."""
+    def _new_assembler(self) -> FrameAssembler:
         asm = FrameAssembler(self.description)
         asm.query_state = self._query_state  # SYN_DROPPED: re-read, report as a frame
         self._assembler = asm
+        return asm
+
+    def frames(self) -> Iterator[Frame]:
+        """Frames as the kernel completes them; DeviceError when the device goes away."""
+        asm = self._new_assembler()
         last = (0, 0)
         try:
             for batch in self.batches():
