@@ -81,3 +81,27 @@ def test_the_verdict_reads_the_whole_interval(
 def test_too_short_a_run_has_no_interval() -> None:
     got = p99_difference_interval(_frames(1.0, 0.0, 6), _frames(1.0, 0.0, 7), 0.0, 1.0)
     assert got["ci95_ms"] is None
+
+
+def test_the_run_queue_watch_reads_before_each_sleep_and_passes_the_warm_pass_on() -> None:
+    from stiction.bench.daemon import _watch_run_queue
+
+    class Clock:
+        def __init__(self) -> None:
+            self.calls: list[tuple[float, object]] = []
+
+        def sleep_until(self, deadline: float, warm: object = None) -> None:
+            self.calls.append((deadline, warm))
+
+    class Loop:
+        clock = Clock()
+
+    loop = Loop()
+    waits, unwatch = _watch_run_queue(loop)
+    try:
+        for k in range(3):
+            loop.clock.sleep_until(float(k), "warm")
+    finally:
+        unwatch()
+    assert Loop.clock.calls == [(0.0, "warm"), (1.0, "warm"), (2.0, "warm")]
+    assert len(waits) == 3 and waits[0] == 0.0 and all(w >= 0.0 for w in waits)

@@ -296,6 +296,7 @@ def run_daemon(
         daemon.pipeline.warm_up(wait=900)
     if callable(start):
         daemon.opts.start = start()
+    waits, unwatch = _watch_run_queue(daemon)
     ticks: list[int] = []
     # Progress on a terminal, one step a second (runs last up to 10 minutes);
     # elsewhere the bar is a no-op and the hook stays ticks.append alone.
@@ -321,13 +322,50 @@ def run_daemon(
         if extra is not None:
             extra["cpu_by_thread_pct"] = _by_thread(threads0, _thread_cpu(), wall)
             extra["warm_pass_ms"] = getattr(daemon.clock, "warm_s", 0.0) * 1e3
+            # waits[k + 1] spans tick k's sleep and work (read before each sleep)
+            extra["run_queue_wait_s"] = np.asarray([*waits[1:], 0.0], dtype=np.float64)
         stats: dict[str, Any] = dict(daemon.stats())
         jitter = daemon.jitter.values().copy()
         start = daemon.schedule.start
     finally:
+        unwatch()
         bar.close()
         daemon.close()
     return stats, cpu, start, jitter, np.asarray(ticks, dtype=np.int64)
+
+
+def _watch_run_queue(daemon: Any) -> tuple[list[float], Callable[[], None]]:
+    """Record, before each of the loop's sleeps, how long its thread has waited
+    on the kernel's run queue (runnable, not running) since the previous one.
+
+    A late tick whose thread waited that long for a CPU was held up by other
+    work on the machine (its own subscribers included); one that was not
+    waited for something else: the interpreter's lock held by another
+    thread, or a virtual CPU the hypervisor stopped while the thread was on
+    it (the guest counts that as running). Read from
+    /proc/thread-self/schedstat (second field, ns; Linux with schedstats),
+    before the sleep, so it costs the tick nothing. Returns the list it
+    fills (empty where unavailable) and what to call when the run is over."""
+    waits: list[float] = []
+    try:
+        fd = os.open("/proc/thread-self/schedstat", os.O_RDONLY)
+    except OSError:
+        return waits, lambda: None
+    clock = daemon.clock
+    sleep_until = clock.sleep_until
+    last = [-1]
+
+    def watched(deadline: float, warm: Any = None) -> None:
+        waited = int(os.pread(fd, 128, 0).split()[1])
+        if last[0] >= 0:
+            waits.append((waited - last[0]) / 1e9)
+        else:
+            waits.append(0.0)
+        last[0] = waited
+        sleep_until(deadline, warm)
+
+    clock.sleep_until = watched
+    return waits, lambda: os.close(fd)
 
 
 def _thread_cpu() -> dict[int, tuple[str, float]]:
@@ -629,7 +667,12 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         raw_got = raw_subs.finish()
     res["mode"] = "sequential" if args.sequential else "concurrent"
     res["steal_pct"] = _steal_pct(steal0, steal1)
-    late_idx = idx[jit > 0.5 / args.rate] if len(idx) == len(jit) else np.array([], np.int64)
+    late = jit > 0.5 / args.rate
+    late_idx = idx[late] if len(idx) == len(jit) else np.array([], np.int64)
+    rq = extra.get("run_queue_wait_s")
+    cpu_bound = (
+        int((rq[late] >= 0.5 * jit[late]).sum()) if rq is not None and len(rq) == len(jit) else None
+    )
     shared, own = _stalls(late_idx, bare[0]) if not args.sequential else (0, [])
     res["bare"] = {"jitter_ms": _summary(bare[0] * 1e3), "late": bare[1], "cpu_pct": bare[2]}
     res["raw"] = {
@@ -643,6 +686,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "late": stats["late_ticks"],
         "late_with_bare_held_up": shared,
         "late_own": own,
+        "late_waiting_for_cpu": cpu_bound,
         "skipped": stats["skipped_deadlines"],
         "idle_deadlines": stats["idle_deadlines"],
         "ticks": stats["ticks"],
@@ -803,6 +847,10 @@ def _table(res: dict[str, Any]) -> str:
     if concurrent:
         lines.append(
             f"{'  ... with the bare loop held up':<34}{'':>24}{d['late_with_bare_held_up']:>12}"
+        )
+    if d.get("late_waiting_for_cpu") is not None:
+        lines.append(
+            f"{'  ... its thread waiting for a CPU':<34}{'':>24}{d['late_waiting_for_cpu']:>12}"
         )
     for sub in ("p50", "p99", "max"):
         row(f"deadline->subscriber {sub} (ms)", "latency_ms", sub)
