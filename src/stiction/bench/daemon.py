@@ -322,6 +322,8 @@ def run_daemon(
         if extra is not None:
             extra["cpu_by_thread_pct"] = _by_thread(threads0, _thread_cpu(), wall)
             extra["warm_pass_ms"] = getattr(daemon.clock, "warm_s", 0.0) * 1e3
+            extra["warm_passes"] = getattr(daemon.clock, "warmed", 0)
+            extra["warm_skipped"] = getattr(daemon.clock, "warm_skipped", 0)
             # waits[k + 1] spans tick k's sleep and work (read before each sleep)
             extra["run_queue_wait_s"] = np.asarray([*waits[1:], 0.0], dtype=np.float64)
         stats: dict[str, Any] = dict(daemon.stats())
@@ -698,6 +700,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "realtime": stats["realtime"],
         "warm": not args.no_warm,
         "warm_pass_ms": extra.get("warm_pass_ms"),
+        "warm_passes": extra.get("warm_passes"),
+        "warm_skipped": extra.get("warm_skipped"),
         "cpu_by_thread_pct": extra.get("cpu_by_thread_pct", {}),
     }
     # The same deadlines' frames for both (raw pyzmq's grid is shifted, so
@@ -868,9 +872,11 @@ def _table(res: dict[str, Any]) -> str:
         f"{_f(tc['p50'], '.3f') + '/' + _f(tc['p99'], '.3f'):>12}"
     )
     warm = d.get("warm_pass_ms")
+    skipped = d.get("warm_skipped")
     lines.append(
         f"{'warm pass in the spin (ms)':<34}{'':>24}"
         f"{(_f(warm, '.3f') if d.get('warm', True) else 'off'):>12}"
+        + (f"   (skipped before {skipped} late wake-ups)" if skipped else "")
     )
     threads = d.get("cpu_by_thread_pct") or {}
     if threads:
