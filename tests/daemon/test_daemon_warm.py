@@ -146,3 +146,70 @@ def test_without_a_spin_the_real_clock_never_warms() -> None:
     clock = RealClock(0.0)
     clock.sleep_until(clock.now() - 1.0, calls.append)
     assert (calls, clock.warmed, clock.warm_skipped) == ([], 0, 0)
+
+
+class FakeTime:
+    """time.monotonic and time.sleep on a hand-driven clock; the poll loop
+    advances it by `poll` per call so that spinning ends."""
+
+    def __init__(self, now: float = 100.0, overshoot: float = 0.0, poll: float = 1e-5) -> None:
+        self.now = now
+        self.overshoot = overshoot
+        self.poll = poll
+        self.slept: list[float] = []
+
+    def monotonic(self) -> float:
+        self.now += self.poll
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.slept.append(seconds)
+        self.now += seconds + self.overshoot
+
+
+def test_the_real_clock_learns_the_warm_pass_and_wakes_that_much_earlier(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime()
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    started: list[float] = []
+
+    def warm(deadline: float) -> None:
+        started.append(deadline - fake.now)  # how long before the deadline it began
+        fake.now += 0.0002  # the pass takes 0.2 ms
+
+    deadline = 101.0
+    for k in range(200):
+        clock.sleep_until(deadline + k * 0.01, warm)
+    assert clock.warmed == 200 and clock.warm_skipped == 0
+    assert clock.warm_s == pytest.approx(0.0002, abs=2e-5)  # + one poll step of the fake clock
+    # It now wakes spin + pass before the deadline, so the pass begins about
+    # 0.5 ms before it and the polling still has the spin's 0.3 ms after it.
+    assert started[-1] == pytest.approx(0.0005, abs=3e-5)
+    assert started[0] == pytest.approx(0.0003, abs=3e-5)
+    assert fake.now >= deadline + 199 * 0.01  # never returns before the deadline
+
+
+def test_a_wake_up_too_late_for_the_pass_skips_it_and_a_stall_counts_as_1_ms(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(overshoot=0.00028)  # the sleep comes back 0.28 ms late
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    calls: list[float] = []
+    clock.sleep_until(101.0, calls.append)
+    assert (calls, clock.warmed, clock.warm_skipped) == ([], 0, 1)
+
+    fake.overshoot = 0.0
+
+    def stalled(deadline: float) -> None:
+        fake.now += 0.05  # preempted for 50 ms inside the pass
+
+    clock.sleep_until(102.0, stalled)
+    assert clock.warmed == 1
+    assert clock.warm_s == pytest.approx(clock_module.WARM_CAP_S * clock_module.WARM_EMA)
