@@ -105,3 +105,13 @@ def test_the_run_queue_watch_reads_before_each_sleep_and_passes_the_warm_pass_on
         unwatch()
     assert Loop.clock.calls == [(0.0, "warm"), (1.0, "warm"), (2.0, "warm")]
     assert len(waits) == 3 and waits[0] == 0.0 and all(w >= 0.0 for w in waits)
+
+
+def test_late_ticks_are_split_by_their_run_queue_wait() -> None:
+    from stiction.bench.daemon import _waiting_for_cpu
+
+    jitter = np.array([0.0, 0.006, 0.008, 0.010, 0.001])
+    waits = np.array([0.0, 0.005, 0.001, 0.006, 0.001])
+    # late (> 5 ms): 6 ms with a 5 ms wait (CPU), 8 ms with 1 ms (other), 10 ms with 6 ms (CPU)
+    assert _waiting_for_cpu(jitter, waits, 0.005) == 2
+    assert _waiting_for_cpu(jitter, np.zeros(0), 0.005) is None

@@ -143,8 +143,12 @@ def _latency(samples: list[tuple[float, float]], start: float) -> dict[str, floa
 
 def bare_loop(
     seconds: float, rate: float, sock: Any = None, start: float | None = None
-) -> tuple[np.ndarray, int, float, float]:
-    """Sleep to absolute deadlines; optionally publish one message per tick."""
+) -> tuple[np.ndarray, int, float, float, np.ndarray]:
+    """Sleep to absolute deadlines; optionally publish one message per tick.
+
+    Returns the lateness of each tick, the late count, CPU %, the grid's
+    start, and each tick's run-queue wait (see _watch_run_queue; empty
+    where /proc/thread-self/schedstat is unavailable)."""
     import msgpack
 
     n_ticks = round(seconds * rate)
@@ -152,9 +156,17 @@ def bare_loop(
     late = 0
     threshold = 0.5 / rate
     start = time.monotonic() + 0.05 if start is None else start
+    fd = _schedstat_fd()
+    waits = np.zeros(n_ticks if fd is not None else 0)
+    before = -1
     cpu0 = time.process_time()
     for n in range(n_ticks):
         deadline = start + n / rate
+        if fd is not None:  # before the sleep, like the daemon's watch
+            waited = _run_queue_ns(fd)
+            if before >= 0:
+                waits[n - 1] = (waited - before) / 1e9
+            before = waited
         remaining = deadline - time.monotonic()
         if remaining > 0:
             time.sleep(remaining)
@@ -171,7 +183,31 @@ def bare_loop(
             sock.send_multipart((b"frame.bare", msgpack.packb(msg)))
     cpu = time.process_time() - cpu0
     wall = time.monotonic() - start
-    return jitter, late, cpu / wall * 100, start
+    if fd is not None:
+        os.close(fd)
+    return jitter, late, cpu / wall * 100, start, waits
+
+
+def _schedstat_fd() -> int | None:
+    """/proc/thread-self/schedstat opened for reading, or None where it is not."""
+    try:
+        return os.open("/proc/thread-self/schedstat", os.O_RDONLY)
+    except OSError:
+        return None
+
+
+def _run_queue_ns(fd: int) -> int:
+    """The calling thread's total run-queue wait so far (ns): schedstat's second field."""
+    return int(os.pread(fd, 128, 0).split()[1])
+
+
+def _waiting_for_cpu(jitter: np.ndarray, waits: np.ndarray, threshold: float) -> int | None:
+    """Late ticks (lateness > `threshold`) whose thread waited at least half
+    their lateness on the run queue; None without a wait per tick."""
+    if len(waits) != len(jitter) or not len(waits):
+        return None
+    late = jitter > threshold
+    return int((waits[late] >= 0.5 * jitter[late]).sum())
 
 
 def _bare_child(argv: list[str]) -> None:
@@ -188,8 +224,9 @@ def _bare_child(argv: list[str]) -> None:
         sock.bind(endpoint)
     print("ready", flush=True)
     start = float(sys.stdin.readline())  # go: deadline 0 of the shared grid
-    jitter, late, cpu, start = bare_loop(seconds, rate, sock, start)
+    jitter, late, cpu, start, waits = bare_loop(seconds, rate, sock, start)
     np.save(out + ".npy", jitter)
+    np.save(out + "-waits.npy", waits)
     Path(out + ".json").write_text(json.dumps({"late": late, "cpu_pct": cpu, "start": start}))
     if sock is not None and ctx is not None:
         sock.close(0)
@@ -217,10 +254,11 @@ class BareProcess:
         self.proc.stdin.write(f"{start!r}\n")
         self.proc.stdin.flush()
 
-    def result(self) -> tuple[np.ndarray, int, float, float]:
+    def result(self) -> tuple[np.ndarray, int, float, float, np.ndarray]:
         self.proc.wait()
         info = json.loads(Path(self.out + ".json").read_text())
-        return np.load(self.out + ".npy"), info["late"], info["cpu_pct"], info["start"]
+        jitter, waits = np.load(self.out + ".npy"), np.load(self.out + "-waits.npy")
+        return jitter, info["late"], info["cpu_pct"], info["start"], waits
 
 
 class _Idle:
@@ -349,16 +387,15 @@ def _watch_run_queue(daemon: Any) -> tuple[list[float], Callable[[], None]]:
     before the sleep, so it costs the tick nothing. Returns the list it
     fills (empty where unavailable) and what to call when the run is over."""
     waits: list[float] = []
-    try:
-        fd = os.open("/proc/thread-self/schedstat", os.O_RDONLY)
-    except OSError:
+    fd = _schedstat_fd()
+    if fd is None:
         return waits, lambda: None
     clock = daemon.clock
     sleep_until = clock.sleep_until
     last = [-1]
 
     def watched(deadline: float, warm: Any = None) -> None:
-        waited = int(os.pread(fd, 128, 0).split()[1])
+        waited = _run_queue_ns(fd)
         if last[0] >= 0:
             waits.append((waited - last[0]) / 1e9)
         else:
@@ -671,16 +708,21 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
     res["steal_pct"] = _steal_pct(steal0, steal1)
     late = jit > 0.5 / args.rate
     late_idx = idx[late] if len(idx) == len(jit) else np.array([], np.int64)
+    threshold = 0.5 / args.rate
     rq = extra.get("run_queue_wait_s")
-    cpu_bound = (
-        int((rq[late] >= 0.5 * jit[late]).sum()) if rq is not None and len(rq) == len(jit) else None
-    )
+    cpu_bound = _waiting_for_cpu(jit, rq, threshold) if rq is not None else None
     shared, own = _stalls(late_idx, bare[0]) if not args.sequential else (0, [])
-    res["bare"] = {"jitter_ms": _summary(bare[0] * 1e3), "late": bare[1], "cpu_pct": bare[2]}
+    res["bare"] = {
+        "jitter_ms": _summary(bare[0] * 1e3),
+        "late": bare[1],
+        "cpu_pct": bare[2],
+        "late_waiting_for_cpu": _waiting_for_cpu(bare[0], bare[4], threshold),
+    }
     res["raw"] = {
         "jitter_ms": _summary(raw[0] * 1e3),
         "late": raw[1],
         "cpu_pct": raw[2],
+        "late_waiting_for_cpu": _waiting_for_cpu(raw[0], raw[4], threshold),
         "latency_ms": _latency(raw_got, raw[3] + 0.5),
     }
     res["daemon"] = {
@@ -852,9 +894,11 @@ def _table(res: dict[str, Any]) -> str:
         lines.append(
             f"{'  ... with the bare loop held up':<34}{'':>24}{d['late_with_bare_held_up']:>12}"
         )
-    if d.get("late_waiting_for_cpu") is not None:
+    waiting = [x.get("late_waiting_for_cpu") for x in (b, r, d)]
+    if any(w is not None for w in waiting):
         lines.append(
-            f"{'  ... its thread waiting for a CPU':<34}{'':>24}{d['late_waiting_for_cpu']:>12}"
+            f"{'  ... its thread waiting for a CPU':<34}"
+            + "".join(f"{'-' if w is None else w:>12}" for w in waiting)
         )
     for sub in ("p50", "p99", "max"):
         row(f"deadline->subscriber {sub} (ms)", "latency_ms", sub)
