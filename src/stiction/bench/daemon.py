@@ -294,6 +294,7 @@ def run_daemon(
     realtime: int = 0,
     warm: bool = True,
     extra: dict[str, Any] | None = None,
+    slice_ms: float | None = None,
 ) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
     """Run stictiond in this process; returns its stats, CPU %, grid start,
     and the lateness of every tick it ran with that tick's grid index.
@@ -303,6 +304,8 @@ def run_daemon(
     runs beside the daemon), so that setting up does not make the first
     tick late.
     `warm`: the loop's warm pass during the spin (stiction.daemon.warm).
+    `slice_ms`: ask the fair scheduler for slices this long for the loop
+    thread (stiction.daemon.clock.request_slice; this thread runs the loop).
     `extra`, if given, receives the CPU of each of the daemon's threads and
     the warm pass's learnt duration."""
     from stiction.daemon.devices import DeviceConfig
@@ -350,6 +353,14 @@ def run_daemon(
                 bar.update(1)
 
         daemon.on_tick = on_tick
+    if slice_ms is not None:
+        from stiction.daemon.clock import request_slice
+
+        refused = request_slice(slice_ms / 1e3)
+        if refused:
+            print(f"  (--slice-ms refused: {refused}; the loop runs as usual)", file=sys.stderr)
+        if extra is not None:
+            extra["slice_refused"] = refused
     threads0 = _thread_cpu()
     cpu0 = time.process_time()
     wall0 = time.monotonic()
@@ -368,6 +379,10 @@ def run_daemon(
         jitter = daemon.jitter.values().copy()
         start = daemon.schedule.start
     finally:
+        if slice_ms is not None:
+            from stiction.daemon.clock import request_slice
+
+            request_slice(0.0)
         unwatch()
         bar.close()
         daemon.close()
@@ -602,6 +617,13 @@ def main(argv: list[str]) -> int:
         help="run the daemon's loop under SCHED_FIFO at PRIO (the baselines stay ordinary)",
     )
     ap.add_argument(
+        "--slice-ms",
+        type=float,
+        metavar="MS",
+        help="experiment: ask Linux's fair scheduler (6.12+) for MS-long slices for the "
+        "daemon's loop thread, so that it preempts CPU-bound work sooner when it wakes",
+    )
+    ap.add_argument(
         "--no-warm",
         action="store_true",
         help="the daemon's loop without its warm pass in the spin (to measure what it buys)",
@@ -659,6 +681,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "realtime": args.realtime,
         "warm": not args.no_warm,
         "extra": extra,
+        "slice_ms": args.slice_ms,
     }
     if args.sequential:
         print(f"bare loop, {base_s:g} s ...", file=sys.stderr)
@@ -741,6 +764,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "device": next(iter(stats["devices"].values())),
         "realtime": stats["realtime"],
         "warm": not args.no_warm,
+        "slice_ms": args.slice_ms if not extra.get("slice_refused") else None,
         "warm_pass_ms": extra.get("warm_pass_ms"),
         "warm_passes": extra.get("warm_passes"),
         "warm_skipped": extra.get("warm_skipped"),
@@ -805,6 +829,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         stem += f"-rt{args.realtime}"
     if args.no_warm:
         stem += "-nowarm"
+    if args.slice_ms is not None:
+        stem += f"-slice{args.slice_ms:g}"
     (results_dir() / f"{stem}.txt").write_text(table + "\n")
     (results_dir() / f"{stem}.json").write_text(json.dumps(res, indent=2))
     _plot(res, results_dir() / f"{stem}.png")
@@ -874,7 +900,8 @@ def _table(res: dict[str, Any]) -> str:
         f"{res['seconds']:g} s, baselines {res['mode']} ({how}), "
         f"{res['cpus']} CPUs (shared machine); CPU time stolen by the hypervisor during the "
         f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}, "
-        f"SCHED_FIFO priority: {d.get('realtime', 0) or 'none (ordinary)'}",
+        f"SCHED_FIFO priority: {d.get('realtime', 0) or 'none (ordinary)'}"
+        + (f", loop thread's slice request: {d['slice_ms']:g} ms" if d.get("slice_ms") else ""),
         *first,
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
     ]

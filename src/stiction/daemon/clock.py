@@ -181,6 +181,60 @@ def set_thread_realtime(native_id: int, priority: int) -> str | None:
     return None
 
 
+_SCHED_SETATTR = {"x86_64": 314, "aarch64": 274}
+"""sched_setattr(2)'s system call number (glibc has long had no wrapper)."""
+
+
+class _SchedAttr(ctypes.Structure):
+    """struct sched_attr up to sched_period (SCHED_ATTR_SIZE_VER0, 48 bytes)."""
+
+    _fields_ = [
+        ("size", ctypes.c_uint32),
+        ("sched_policy", ctypes.c_uint32),
+        ("sched_flags", ctypes.c_uint64),
+        ("sched_nice", ctypes.c_int32),
+        ("sched_priority", ctypes.c_uint32),
+        ("sched_runtime", ctypes.c_uint64),
+        ("sched_deadline", ctypes.c_uint64),
+        ("sched_period", ctypes.c_uint64),
+    ]
+
+
+def request_slice(seconds: float) -> str | None:
+    """Ask Linux's fair scheduler for time slices of `seconds` for the calling thread.
+
+    Since Linux 6.12 an ordinary (SCHED_OTHER) thread may request its own
+    slice through sched_setattr's sched_runtime (clamped to 0.1-100 ms; 0
+    goes back to the default); under EEVDF a shorter slice gives the thread
+    an earlier virtual deadline when it wakes, so it preempts a CPU-bound
+    task sooner instead of waiting for that task's slice to end. No
+    privilege is needed: the policy and nice value stay as they are. An
+    experiment (`stiction bench daemon --slice-ms`), not something the
+    daemon does by itself: on the shared VM the runs were too noisy to say
+    whether it helps (docs/daemon.md). Returns None, or why it could not.
+    """
+    if not (math.isfinite(seconds) and 0.0 <= seconds <= 0.1):
+        raise ValueError(f"slice must be between 0 and 100 ms, got {seconds * 1e3:g} ms")
+    number = _SCHED_SETATTR.get(os.uname().machine)
+    if not sys.platform.startswith("linux") or number is None:
+        return "sched_setattr is only called on Linux x86_64 and aarch64 here"
+    try:
+        nice = os.getpriority(os.PRIO_PROCESS, 0)  # the calling thread's, on Linux
+        attr = _SchedAttr(
+            size=ctypes.sizeof(_SchedAttr),
+            sched_policy=os.SCHED_OTHER,
+            sched_flags=1,  # SCHED_FLAG_RESET_ON_FORK: threads it starts get the default
+            sched_nice=nice,
+            sched_runtime=round(seconds * 1e9),
+        )
+        libc = ctypes.CDLL(None, use_errno=True)
+        if libc.syscall(number, 0, ctypes.byref(attr), 0) != 0:
+            return os.strerror(ctypes.get_errno())
+    except (OSError, AttributeError) as exc:
+        return str(exc)
+    return None
+
+
 def set_ordinary() -> None:
     """Back to ordinary scheduling (lowering a thread's priority needs no rights)."""
     if hasattr(os, "sched_setscheduler"):
