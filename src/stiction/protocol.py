@@ -11,6 +11,7 @@ so a subscriber can filter on the topic prefix without decoding anything.
 
 from __future__ import annotations
 
+import functools
 import ipaddress
 import math
 from collections.abc import Mapping
@@ -117,8 +118,12 @@ def frame(
     }
 
 
+@functools.lru_cache(maxsize=256)
 def frame_topic(device: str) -> bytes:
-    """The topic of a device's frames; device names are UTF-8."""
+    """The topic of a device's frames; device names are UTF-8.
+
+    Cached: the loop asks for every device's topic every tick, and the
+    answer never changes for a name."""
     return TOPIC_FRAME + device.encode("utf-8")
 
 

@@ -16,6 +16,7 @@ exact payloads the loop published, with no socket and no patching.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Mapping
 from typing import Any, Protocol
 
@@ -26,7 +27,12 @@ from stiction.daemon.security import Guard
 
 
 class Sink(Protocol):
-    """What the daemon's loop publishes through."""
+    """What the daemon's loop publishes through.
+
+    A sink may also have ``warm(topic, message)``: the send path run on a
+    message that goes nowhere, which the loop calls during its spin before a
+    deadline (stiction.daemon.warm). It is optional; a sink without it is
+    simply not warmed."""
 
     endpoint: str
     sent: int
@@ -53,6 +59,10 @@ class Publisher:
         self.endpoint = self.sock.last_endpoint.decode() if self.sock.last_endpoint else endpoint
         self.sent = 0
         self.dropped = 0
+        # A PUB socket with no peer: libzmq drops what it is given, after
+        # running the same send path as the real socket's.
+        self._void = ctx.socket(zmq.PUB)
+        self._void.linger = 0
 
     def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes:
         """Publish one message; returns the payload (kept for snapshots and tests)."""
@@ -63,6 +73,13 @@ class Publisher:
         except zmq.Again:
             self.dropped += 1
         return payload
+
+    def warm(self, topic: bytes, message: Mapping[str, Any]) -> None:
+        """Encode and send `message` to no one: brings the send path's code
+        and data into the caches before a deadline; counts nothing."""
+        payload = protocol.encode(message)
+        with contextlib.suppress(zmq.Again):  # a PUB drops rather than blocks; in case
+            self._void.send_multipart((topic, payload), flags=zmq.DONTWAIT, copy=True)
 
     def wait_subscribers(self, n: int, timeout: float) -> int:
         """Block until `n` frame subscribers are in, or `timeout` seconds pass; returns how many.
@@ -90,6 +107,7 @@ class Publisher:
 
     def close(self) -> None:
         self.sock.close(linger=0)
+        self._void.close(linger=0)
 
 
 class Recorder:
@@ -104,6 +122,12 @@ class Recorder:
         self.sent = 0
         self.dropped = 0
         self.messages: list[tuple[bytes, bytes]] = []
+        self.warmed = 0
+
+    def warm(self, topic: bytes, message: Mapping[str, Any]) -> None:
+        """Encode and keep nothing (only count): the ZeroMQ publisher's warm."""
+        protocol.encode(message)
+        self.warmed += 1
 
     def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes:
         payload = protocol.encode(message)

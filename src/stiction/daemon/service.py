@@ -59,6 +59,7 @@ from stiction.daemon.scene_state import SceneState
 from stiction.daemon.security import Guard
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
+from stiction.daemon.warm import Warmer
 from stiction.errors import StictionError
 from stiction.scene.backend import SimulatorBackend
 from stiction.scene.model import Scene
@@ -114,6 +115,7 @@ class Daemon:
         """When the daemon was made: the stats reply's uptime counts from it."""
         self.on_tick: Callable[[int], None] | None = None
         """Test hook: called after each published tick with its number."""
+        self.warm_spin = True  # run the tick's paths on scratch state in the spin (warm.py)
 
     # ------------------------------------------------------------ the parts' state
     # The loop, the op table and tests read these as the daemon's own; each
@@ -275,6 +277,7 @@ class Daemon:
             self.schedule = Schedule(self.opts.rate, start, _ms(self.opts.late_threshold_ms))
         limit = None if self.opts.seconds is None else round(self.opts.seconds * self.opts.rate)
         prev_t = -math.inf
+        warm = Warmer(self, 1.0 / self.opts.rate).warm if self.warm_spin else None
         while not self._stop.is_set():
             if limit is not None and self.schedule.index >= limit:
                 break
@@ -284,7 +287,7 @@ class Daemon:
             if self._may_idle() and self._idle(limit):
                 continue
             deadline = self.schedule.deadline
-            self.clock.sleep_until(deadline)
+            self.clock.sleep_until(deadline, warm)
             woke = self.clock.now()
             lateness = self.schedule.begin(woke)
             if not self.virtual:
