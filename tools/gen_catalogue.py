@@ -10,6 +10,7 @@ the committed file is current (0) or stale (1).
 
 from __future__ import annotations
 
+import argparse
 import json
 import sys
 from pathlib import Path
@@ -26,14 +27,26 @@ def render(facts: Path) -> str:
 
 
 def main(argv: list[str]) -> int:
-    args = [a for a in argv if not a.startswith("--")]
-    facts = Path(args[0]) if args else FACTS
+    parser = argparse.ArgumentParser(
+        prog="tools/gen_catalogue.py",
+        description="Regenerate the device catalogue's otd.json from OpenTabletDriver's facts.",
+    )
+    parser.add_argument(
+        "facts", nargs="?", type=Path, default=FACTS, help=f"the facts file (default: {FACTS})"
+    )
+    parser.add_argument(
+        "--check",
+        action="store_true",
+        help="write nothing; exit 0 if the committed file is current, 1 if stale",
+    )
+    opts = parser.parse_args(argv)
+    facts = opts.facts
     try:
         text = render(facts)
     except (OSError, ValueError, KeyError) as exc:
         print(f"gen_catalogue: cannot read {facts}: {exc}", file=sys.stderr)
         return 2
-    if "--check" in argv:
+    if opts.check:
         current = OUT.exists() and OUT.read_text("utf-8") == text
         print(f"{OUT.name}: {'current' if current else 'stale: run tools/gen_catalogue.py'}")
         return 0 if current else 1

@@ -160,6 +160,20 @@ def test_the_generator_says_so_when_the_facts_are_missing(tmp_path: Path) -> Non
     assert "Traceback" not in done.stderr
 
 
+def test_the_generator_help_writes_nothing() -> None:
+    """`--help` once regenerated otd.json: it must only print the usage."""
+    out = REPO / "src" / "stiction" / "drivers" / "catalogue" / "otd.json"
+    before = out.stat().st_mtime_ns
+    done = subprocess.run(
+        [sys.executable, str(REPO / "tools" / "gen_catalogue.py"), "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+    )
+    assert done.returncode == 0 and "--check" in done.stdout
+    assert out.stat().st_mtime_ns == before
+
+
 # --- matching ------------------------------------------------------------------
 
 
