@@ -1,0 +1,389 @@
+"""One read() of a single-tool device straight to PenSamples: a reader written per device.
+
+A live pen delivers one frame per read(): four or five events and one
+sample. Through the assembler (`device.read_samples`) that costs about
+4 us, most of it per call, not per event: the events become a list of
+tuples, the feed loop loads the assembler's state into locals and writes it
+back, a Frame and a Contact are built only to be taken apart by
+`frame_samples`. Here, as hid/report_code.py does for HID report layouts,
+the whole read is written out as Python source for the device at hand:
+
+- the events are walked straight off `struct.iter_unpack`, no list;
+- each axis's value at the last SYN_REPORT lives in a closure cell
+  (`c<code>`), read and written as cheaply as a local, so nothing is loaded
+  from or stored into the assembler per call; the frame in progress is
+  held in locals (`a<code>`);
+- range checks compare against literal numbers, and at SYN_REPORT the
+  PenSample is filled in directly with the units' arithmetic written in
+  (the same operations, in the same order, as units._sample_function).
+
+Only the common case runs here: whole frames of axis, EV_MSC and SYN_REPORT
+events, with the assembler at a frame boundary. Anything else -- a key, a
+SYN_DROPPED or other SYN code, a read ending mid-frame, a long read (the
+compiled loop's, columns.py) -- hands the assembler the state as of the last
+frame this reader completed (`store`), feeds it the rest of the read from
+the first event of the unfinished frame, and takes the state back
+(`load`) once the assembler is at a clean frame boundary again; until then
+every read goes through the assembler. So the samples and the counters are
+the assembler's own, event for event (tests/evdev/test_evdev_live.py
+compares them on every recording cut into reads of one frame and of random
+sizes, and on random streams with keys, SYN_DROPPED and garbage).
+Multi-touch devices are not specialised: their reads take `read_samples`.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Callable, Iterable, Iterator
+
+from evdev import ecodes
+
+from stiction.drivers.blank_sample import BlankSample
+from stiction.drivers.evdev.frames import Contact, FrameAssembler
+from stiction.drivers.evdev.single_code import sorted_codes
+from stiction.drivers.evdev.units import SurfaceUnits
+from stiction.drivers.sample import PenSample
+
+#: the assembler's path for one read's bytes (device.read_samples, bound to asm and units)
+Fallback = Callable[[bytes], list[PenSample]]
+#: the samples that end every contact when the device went away, given the last read
+End = Callable[[bytes], list[PenSample]]
+Samples = Callable[[Iterable[bytes]], Iterator[PenSample]]
+
+
+class LiveReader:
+    """A live device's samples: `samples(reads)`, reads of whole events -> PenSamples.
+
+    `samples` raises what the reads raise; for `gone` (DeviceGone) it first
+    yields the samples `end` makes, which end every contact still down.
+    `count()` is how many samples it has yielded (the source's stats);
+    `store()` hands the assembler the state the reader keeps to itself.
+    """
+
+    def __init__(
+        self,
+        samples: Samples,
+        store: Callable[[], None],
+        count: Callable[[], int],
+        source: str | None,
+    ) -> None:
+        self.samples = samples
+        self.store = store
+        self.count = count
+        #: the generated source, for reading what runs (None: not specialised)
+        self.source = source
+
+
+def _minus(expr: str, offset: float) -> str:
+    """`(expr - offset)`, or `expr` for a zero offset: the same number either way
+    for the int values of an axis (an int minus 0.0 is that int as a float, as
+    the multiplication or division after it would make it anyway)."""
+    return expr if offset == 0 else f"({expr} - {offset!r})"
+
+
+def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
+    """Statements that append the PenSample of the contact the cells describe
+    (`last_tool` its tool, `t` the frame time): units._sample_function's
+    arithmetic, operation for operation, with the device's numbers written in."""
+    x, y = ecodes.ABS_X, ecodes.ABS_Y
+    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
+    x0, x1, y0, y1 = units._bounds
+    rx, ry = units._rx, units._ry
+    lines = []
+    for name, code, lo, hi in (("xs", x, x0, x1), ("ys", y, y0, y1)):
+        lines += [
+            f"{name} = c{code}" if code in asm._abs else f"{name} = 0",
+            f"if {name} < {lo!r}:",
+            f"    {name} = {lo!r}",
+            f"elif {name} > {hi!r}:",
+            f"    {name} = {hi!r}",
+        ]
+    if asm._has_touch_key:
+        tip = "key_touch"
+    elif asm._has_pressure:
+        tip = f"c{p} > {asm._pressure_min!r}"
+    else:
+        tip = "False"
+    lines += [
+        "s = blank()",
+        "s.t = sec + usec / 1_000_000",
+        f"s.x = {_minus('xs', x0)} / {rx!r} / 1000",
+        f"s.y = {_minus('ys', y0)} / {ry!r} / 1000",
+        f"s.tip = {tip}",
+        "s.in_range = True",
+        "s.contact = 0",
+    ]
+    ps = units._pressure
+    if asm._has_pressure and ps is not None:
+        lines += [
+            f"pf = {_minus(f'c{p}', ps.offset)} * {ps.scale!r}",
+            "s.pressure = 0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf",
+        ]
+    else:
+        lines.append("s.pressure = None")
+    lines.append("s.tool = last_tool")
+    for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
+        if asm._has_tilt and axis is not None:
+            lines.append(f"s.{attr} = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}")
+        else:
+            lines.append(f"s.{attr} = None")
+    lines += [
+        "s.buttons = buttons",
+        "s.__class__ = pen",
+        "if first is None:",
+        "    first = s",
+        "elif rest is None:",
+        "    rest = [s]",
+        "else:",
+        "    rest.append(s)",
+    ]
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
+def _lines(template: str, codes: list[int], indent: str) -> str:
+    return "".join(indent + template.format(c=c) + "\n" for c in codes)
+
+
+def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
+    """The reader's source for this device (read it to see what runs).
+
+    The events of a read write straight into the cells; `snap`, taken when
+    the read begins, puts them back if the read turns out to need the
+    assembler, which then takes the whole read (the frames this reader
+    completed included: counters are only added when a read ends well).
+    """
+    codes = sorted_codes(asm)
+    ranges = asm._ranges
+    x, y = ecodes.ABS_X, ecodes.ABS_Y
+    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
+    state = ", ".join([*(f"c{c}" for c in codes), "seen", "last_tool"])
+    tool = "key_tool" if asm._has_tool_keys else "default_tool if seen else None"
+    branches = []
+    for i, c in enumerate(codes):
+        lo, hi = ranges[c]
+        branches.append(
+            f"            {'if' if i == 0 else 'elif'} code == {c}:\n"
+            f"                c{c} = value\n"
+            f"                if value < {lo} or value > {hi}:\n"
+            f"                    bad += 1\n"
+            + ("                seen = True\n" if c in (x, y) else "")
+        )
+    branches.append("            else:\n                unknown += 1\n")
+    if asm._has_touch_key:
+        tip = "key_touch"
+    elif asm._has_pressure:
+        tip = f"c{p} > {asm._pressure_min!r}"
+    else:
+        tip = "False"
+    last_contact = (
+        f"(0, None, None, last_tool, {f'c{x}' if x in asm._abs else '0'}, "
+        f"{f'c{y}' if y in asm._abs else '0'}, {f'c{p}' if asm._has_pressure else 'None'}, "
+        f"{tip}, True, {f'c{tx}' if asm._has_tilt else 'None'}, "
+        f"{f'c{ty}' if asm._has_tilt else 'None'}, buttons)"
+    )
+    return f"""abs_ = asm._abs
+stats = asm._counts
+ok = False  # the cells hold the assembler's state; else the assembler holds it
+{_lines("c{c} = 0", codes, "")}seen = False
+last_tool = None  # the tool of the last frame's contact; None: it had none
+key_tool = None
+key_touch = False
+buttons = 0
+made_samples = 0
+
+
+def load():
+    \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
+    nonlocal ok, {state}, key_tool, key_touch, buttons
+    if (
+        asm._n_pending
+        or asm._dropping
+        or asm._undo_abs
+        or asm._dirty_all
+        or asm._keys_ok is not None
+        or asm._keys_changed
+        or asm.needs_resync
+    ):
+        ok = False
+        return
+{_lines("c{c} = abs_[{c}]", codes, "    ")}    seen = asm._seen_position
+    last = asm._last
+    last_tool = last[0].tool if last else None
+    key_tool = asm._key_tool
+    key_touch = asm._key_touch
+    buttons = asm._button_state
+    ok = True
+
+
+def store():
+    \"\"\"Hand the assembler the state as of the last frame; the assembler holds it now.\"\"\"
+    nonlocal ok
+    if not ok:
+        return
+    ok = False
+{_lines("abs_[{c}] = c{c}", codes, "    ")}    asm._seen_position = seen
+    asm._seen_start = seen
+    asm._last = (tnew(Contact, {last_contact}),) if last_tool is not None else ()
+
+
+def count():
+    return made_samples
+
+
+def samples(reads):
+    nonlocal {state}, made_samples
+    data = b""
+    try:
+        for data in reads:
+            if not ok or len(data) >= long_read:
+                store()
+                out = fallback(data)
+                load()
+                made_samples += len(out)
+                yield from out
+                continue
+            snap = ({state})
+            n = 0
+            bad = 0
+            unknown = 0
+            made = 0
+            first = None  # the read's samples, yielded once the whole read went well
+            rest = None
+            for sec, usec, ev_type, code, value in unpack(data):
+                if ev_type == 3:  # EV_ABS
+                    n += 1
+{textwrap.indent("".join(branches), " " * 8)}                    continue
+                if ev_type == 0:
+                    if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
+                        break
+                    # SYN_REPORT: the frame is complete
+                    if n:
+                        n = 0
+                        tool = {tool}
+                        if tool is not last_tool:
+                            if last_tool is not None:
+                                break  # a contact ends or changes tool: the assembler's
+                            last_tool = tool
+                    made += 1
+                    if last_tool is not None:
+{_sample_code(units, asm, " " * 24)}                    continue
+                if ev_type == 1:  # EV_KEY: the assembler's
+                    break
+                n += 1  # EV_MSC and other types: no contact state
+            else:
+                if not n:
+                    asm._frames += made
+                    if bad:
+                        stats["value_out_of_range"] += bad
+                    if unknown:
+                        stats["unknown_code"] += unknown
+                    if first is not None:
+                        made_samples += 1
+                        yield first
+                        if rest is not None:
+                            made_samples += len(rest)
+                            yield from rest
+                    continue
+            # the read needs the assembler (or ends mid-frame): it takes the whole read
+            {state} = snap
+            store()
+            out = fallback(data)
+            load()
+            made_samples += len(out)
+            yield from out
+    except gone:
+        store()
+        out = end(data)
+        made_samples += len(out)
+        yield from out
+        raise
+"""
+
+
+_FACTORIES: dict[
+    tuple[object, ...], Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
+] = {}
+
+
+def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
+    """Everything source() reads: devices that agree on it share one compiled reader."""
+    return (
+        tuple(sorted(asm._ranges.items())),
+        asm._has_tool_keys,
+        asm._has_pressure,
+        asm._has_touch_key,
+        asm._pressure_min,
+        asm._has_tilt,
+        asm._default_tool,
+        units._bounds,
+        units._rx,
+        units._ry,
+        units._pressure,
+        units._tilt_x,
+        units._tilt_y,
+    )
+
+
+def live_reader(
+    asm: FrameAssembler,
+    units: SurfaceUnits,
+    fallback: Fallback,
+    end: End,
+    gone: type[BaseException],
+    long_read: int,
+) -> LiveReader:
+    """The reader for `asm`'s device: generated for a single-tool device.
+
+    `fallback(data)`: the assembler's path for a read (device.read_samples
+    bound to asm and units); it takes every read of `long_read` bytes or
+    more, and every read of a multi-touch device. `end(data)`: the samples
+    that end the contacts once `gone` was raised after the read `data`.
+    """
+    if asm.multitouch:
+        return _assembler_reader(fallback, end, gone)
+    from stiction.drivers.evdev.device import INPUT_EVENT
+
+    text = source(asm, units)
+    key = _key(asm, units)
+    make = _FACTORIES.get(key)
+    if make is None:
+        namespace: dict[str, object] = {
+            "tnew": tuple.__new__,
+            "Contact": Contact,
+            "blank": BlankSample,
+            "pen": PenSample,
+            "unpack": INPUT_EVENT.iter_unpack,
+        }
+        body = text + "\nload()\nreturn samples, store, count\n"
+        full = "def make(asm, default_tool, fallback, end, gone, long_read):\n" + textwrap.indent(
+            body, "    "
+        )
+        exec(compile(full, f"<evdev live reader: {asm.desc.name}>", "exec"), namespace)
+        make = namespace["make"]  # type: ignore[assignment]
+        _FACTORIES[key] = make  # type: ignore[assignment]
+    samples, store, count = make(asm, asm._default_tool, fallback, end, gone, long_read)  # type: ignore[misc]
+    return LiveReader(samples, store, count, text)
+
+
+def _assembler_reader(fallback: Fallback, end: End, gone: type[BaseException]) -> LiveReader:
+    """Every read through the assembler (`fallback`): the multi-touch devices' reader."""
+    made = 0
+
+    def samples(reads: Iterable[bytes]) -> Iterator[PenSample]:
+        nonlocal made
+        data = b""
+        try:
+            for data in reads:
+                out = fallback(data)
+                made += len(out)
+                yield from out
+        except gone:
+            out = end(data)
+            made += len(out)
+            yield from out
+            raise
+
+    def count() -> int:
+        return made
+
+    return LiveReader(samples, lambda: None, count, None)

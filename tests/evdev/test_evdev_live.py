@@ -1,0 +1,223 @@
+"""The live reader (live_code.py) against the assembler and frame_samples: same samples.
+
+DeviceSource.samples() runs the reader live_code.py writes for the device
+over the node's read()s. Here it eats the same reads as the reference -- the
+frame assembler's `feed_many` on the unpacked events and `frame_samples` on
+each frame -- and both must give equal samples read by read, equal counters
+after every read, and, when the device goes away (DeviceGone raised by the
+reads), the same samples ending the contacts and the same final counters.
+The reads: every recording the benchmark times cut into one read per frame
+(what a device at its report rate delivers), into reads of random sizes (a
+read may end mid-frame), the same with SYN_DROPPED put into frames, with and
+without a live device's state query; and random streams from hypothesis
+with keys, SYN_DROPPED, other SYN codes, unknown types and codes and values
+out of range. The last tests break the generated reader on purpose and check
+that the comparison notices.
+"""
+
+from __future__ import annotations
+
+import itertools
+import random
+import re
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import pytest
+from evdev import ecodes as e
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
+
+from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
+from stiction.drivers.evdev import live_code, sizes
+from stiction.drivers.evdev.description import DeviceDescription
+from stiction.drivers.evdev.device import INPUT_EVENT, DeviceGone, live_reader_for
+from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.recording import load
+from stiction.drivers.evdev.source import frame_samples
+from stiction.drivers.evdev.units import SurfaceUnits
+
+Event = tuple[int, int, int, int, int]
+
+
+def _reads(events: list[Event], cuts: list[int]) -> list[bytes]:
+    """The events packed as read() returns them, one read between cuts (event indices)."""
+    bounds = [0, *sorted({c for c in cuts if 0 < c < len(events)}), len(events)]
+    return [
+        b"".join(INPUT_EVENT.pack(*ev) for ev in events[a:b]) for a, b in itertools.pairwise(bounds)
+    ]
+
+
+def _reference(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[object]:
+    """The assembler and frame_samples, read by read; a record of everything seen."""
+    asm = FrameAssembler(desc)
+    if live:
+        asm.query_state = lambda: STATE
+    units = SurfaceUnits(desc)
+    out: list[object] = []
+    for data in reads:
+        for frame in asm.feed_many(list(INPUT_EVENT.iter_unpack(data))):
+            out += frame_samples(units, frame)
+        out.append(("read done", dict(asm.stats)))
+    last = INPUT_EVENT.unpack_from(reads[-1], len(reads[-1]) - INPUT_EVENT.size)
+    end = asm.finish(last[0], last[1])
+    if end is not None:
+        out += frame_samples(units, end)
+    out.append(("gone", dict(asm.stats)))
+    return out
+
+
+def _live(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[object]:
+    """The live reader over the same reads, the device going away after the last."""
+    asm = FrameAssembler(desc)
+    if live:
+        asm.query_state = lambda: STATE
+    reader = live_reader_for(asm, SurfaceUnits(desc))
+    out: list[object] = []
+
+    def device() -> Iterator[bytes]:
+        for data in reads:
+            yield data
+            # the reader asks for the next read once the last one's samples are taken
+            out.append(("read done", dict(asm.stats)))
+        raise DeviceGone("unplugged")
+
+    with pytest.raises(DeviceGone):
+        for s in reader.samples(device()):
+            out.append(s)
+    out.append(("gone", dict(asm.stats)))
+    assert reader.count() == sum(1 for x in out if not isinstance(x, tuple))
+    return out
+
+
+def same_both_ways(
+    desc: DeviceDescription, events: list[Event], cuts: list[int], live: bool = False
+) -> int:
+    """The samples of both paths, compared; how many there were."""
+    reads = _reads(events, cuts)
+    got, want = _live(desc, reads, live), _reference(desc, reads, live)
+    assert got == want
+    return sum(1 for x in got if not isinstance(x, tuple))
+
+
+def _frame_cuts(events: list[Event]) -> list[int]:
+    """One read per frame: a cut after every SYN_REPORT."""
+    return [i + 1 for i, ev in enumerate(events) if ev[2] == e.EV_SYN and ev[3] == e.SYN_REPORT]
+
+
+def _desc(evdev_data: Path, name: str) -> tuple[DeviceDescription, list[Event]]:
+    rec = load(evdev_data / name)
+    size_mm = (100.0, 60.0) if "synaptics" in name else None  # as the benchmark does
+    return sizes.apply(rec.description, size_mm), list(rec.events)
+
+
+@pytest.mark.parametrize("name", RECORDINGS)
+@pytest.mark.parametrize("live", [False, True], ids=["replay", "live"])
+def test_live_reader_equals_the_assembler_on_recordings(
+    evdev_data: Path, name: str, live: bool
+) -> None:
+    desc, events = _desc(evdev_data, name)
+    assert same_both_ways(desc, events, _frame_cuts(events), live) > 0
+    rng = random.Random(name)
+    cuts = [rng.randrange(len(events)) for _ in range(len(events) // 4)]
+    assert same_both_ways(desc, events, cuts, live) > 0
+    dropped = _with_drops(events)
+    assert same_both_ways(desc, dropped, _frame_cuts(dropped), live) > 0
+    cuts = [rng.randrange(len(dropped)) for _ in range(len(dropped) // 3)]
+    assert same_both_ways(desc, dropped, cuts, live) > 0
+    # a reader that fell behind: long reads, for the compiled loop or the assembler
+    assert same_both_ways(desc, events, list(range(0, len(events), 150)), live) > 0
+
+
+def test_pen_recordings_take_the_generated_reader(evdev_data: Path) -> None:
+    """The comparison above is about the generated code: pens get it, touchpads do not."""
+    for name in RECORDINGS:
+        desc, _ = _desc(evdev_data, name)
+        reader = live_reader_for(FrameAssembler(desc), SurfaceUnits(desc))
+        assert (reader.source is not None) == (desc.kind == "pen"), name
+
+
+@pytest.mark.parametrize("desc", list(DESCS.values()), ids=list(DESCS))
+@settings(max_examples=150, deadline=None)
+@given(
+    events=st.lists(st.tuples(_codes, _values), min_size=1, max_size=200),
+    cuts=st.lists(st.integers(0, 200), max_size=30),
+    live=st.booleans(),
+)
+def test_live_reader_equals_the_assembler_on_random_streams(
+    desc: DeviceDescription,
+    events: list[tuple[tuple[int, int], int]],
+    cuts: list[int],
+    live: bool,
+) -> None:
+    stream = [(i // 7, i, t, c, v) for i, ((t, c), v) in enumerate(events)]
+    same_both_ways(desc, stream, cuts, live)
+
+
+@settings(max_examples=100, deadline=None)
+@given(
+    frames=st.lists(
+        st.lists(
+            st.tuples(st.sampled_from([e.ABS_X, e.ABS_Y, e.ABS_PRESSURE]), _values),
+            max_size=4,
+        ),
+        min_size=1,
+        max_size=40,
+    ),
+    extra=st.lists(st.tuples(_codes, _values), max_size=3),
+)
+def test_live_reader_on_well_formed_frames_with_a_few_odd_events(
+    frames: list[list[tuple[int, int]]], extra: list[tuple[tuple[int, int], int]]
+) -> None:
+    """Mostly the common case (whole frames of axes, one read each), with a few odd
+    events at random places: the reader and the assembler take turns."""
+    rng = random.Random(len(frames))
+    stream: list[Event] = [(0, 1, e.EV_KEY, e.BTN_TOOL_PEN, 1), (0, 1, e.EV_SYN, e.SYN_REPORT, 0)]
+    for i, frame in enumerate(frames):
+        stream += [(i, 2, e.EV_ABS, code, v) for code, v in frame]
+        stream += [(i, 3, e.EV_MSC, e.MSC_SERIAL, 7), (i, 4, e.EV_SYN, e.SYN_REPORT, 0)]
+    for (t, c), v in extra:
+        stream.insert(rng.randrange(len(stream) + 1), (9, 9, t, c, v))
+    assert same_both_ways(DESCS["pen"], stream, _frame_cuts(stream)) > 0
+
+
+def _no_restore(text: str) -> str:
+    """The reader's state is not put back before the assembler takes a read."""
+    out, n = re.subn(r"\n( +)[^\n]* = snap\n", r"\n\1pass\n", text)
+    assert n == 1
+    return out
+
+
+BREAKS: dict[str, Callable[[str], str]] = {
+    # Y never changes
+    "axis-dropped": lambda text: text.replace("c1 = value\n", "pass\n"),
+    "restore-lost": _no_restore,
+    # the tip does not follow BTN_TOUCH
+    "tip-wrong": lambda text: text.replace("s.tip = key_touch\n", "s.tip = True\n"),
+    # a read ending mid-frame is not handed over
+    "partial-frame-dropped": lambda text: text.replace("if not n:\n", "if True:\n"),
+}
+
+
+@pytest.mark.parametrize("how", list(BREAKS))
+def test_the_comparison_catches_a_broken_live_reader(
+    evdev_data: Path, monkeypatch: pytest.MonkeyPatch, how: str
+) -> None:
+    """The generated reader, broken on purpose, must disagree with the assembler."""
+    desc, events = _desc(evdev_data, "wacom-intuos4-6x9.desc")
+    events = _with_drops(events)
+    rng = random.Random(1)
+    cuts = [rng.randrange(len(events)) for _ in range(len(events) // 3)]
+    same_both_ways(desc, events, cuts)
+    real = live_code.source
+    text = real(FrameAssembler(desc), SurfaceUnits(desc))
+    assert BREAKS[how](text) != text  # here, not inside pytest.raises below
+
+    def broken(asm: FrameAssembler, units: SurfaceUnits) -> str:
+        return BREAKS[how](real(asm, units))
+
+    monkeypatch.setattr(live_code, "source", broken)
+    monkeypatch.setattr(live_code, "_FACTORIES", {})
+    with pytest.raises(AssertionError):
+        same_both_ways(desc, events, cuts)
