@@ -30,7 +30,7 @@ from hypothesis import strategies as st
 from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
 
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
-from stiction.drivers.evdev import live_code, sizes
+from stiction.drivers.evdev import live_code, live_mt_code, sizes
 from stiction.drivers.evdev.description import DeviceDescription
 from stiction.drivers.evdev.device import INPUT_EVENT, DeviceGone, live_reader_for
 from stiction.drivers.evdev.frames import FrameAssembler
@@ -130,12 +130,13 @@ def test_live_reader_equals_the_assembler_on_recordings(
     assert same_both_ways(desc, events, list(range(0, len(events), 150)), live) > 0
 
 
-def test_pen_recordings_take_the_generated_reader(evdev_data: Path) -> None:
-    """The comparison above is about the generated code: pens get it, touchpads do not."""
+def test_every_recording_takes_a_generated_reader(evdev_data: Path) -> None:
+    """The comparison above is about the generated code: pens and touchpads get one."""
     for name in RECORDINGS:
         desc, _ = _desc(evdev_data, name)
         reader = live_reader_for(FrameAssembler(desc), SurfaceUnits(desc))
-        assert (reader.source is not None) == (desc.kind == "pen"), name
+        assert reader.source is not None, name
+        assert ("slots = asm._slots" in reader.source) == desc.is_multitouch, name
 
 
 @pytest.mark.parametrize("desc", list(DESCS.values()), ids=list(DESCS))
@@ -182,6 +183,39 @@ def test_live_reader_on_well_formed_frames_with_a_few_odd_events(
     assert same_both_ways(DESCS["pen"], stream, _frame_cuts(stream)) > 0
 
 
+def _two_fingers() -> tuple[list[Event], list[int]]:
+    """Two fingers on the test touchpad, then reads that switch slots before a key
+    or a SYN_DROPPED sends them to the assembler; one read per line below."""
+
+    def ev(t: int, c: int, v: int) -> Event:
+        return (1, 0, t, c, v)
+
+    def mt(code: int) -> Callable[[int], Event]:
+        return lambda v: ev(e.EV_ABS, code, v)
+
+    slot, tid = mt(e.ABS_MT_SLOT), mt(e.ABS_MT_TRACKING_ID)
+    x, y, p = mt(e.ABS_MT_POSITION_X), mt(e.ABS_MT_POSITION_Y), mt(e.ABS_MT_PRESSURE)
+    syn, drop = ev(e.EV_SYN, e.SYN_REPORT, 0), ev(e.EV_SYN, e.SYN_DROPPED, 0)
+    touch, left = ev(e.EV_KEY, e.BTN_TOUCH, 1), ev(e.EV_KEY, e.BTN_LEFT, 1)
+    reads = [
+        [slot(0), tid(5), x(10), slot(1), tid(6), touch, syn],
+        [x(20), syn],  # slot 1 moves
+        [slot(0), y(30), syn],
+        # slot 0 (no ABS_MT_SLOT), a frame, then slot 1 and a key: the assembler's
+        [x(40), syn, slot(1), y(50), left, syn],
+        [x(60), syn],  # slot 1
+        [slot(0), x(70), syn, x(80), drop, syn],
+        [y(90), p(300), syn],
+    ]
+    cuts = list(itertools.accumulate(len(r) for r in reads))
+    return [x for r in reads for x in r], cuts
+
+
+def test_two_fingers_across_slot_switches_and_hand_overs() -> None:
+    events, cuts = _two_fingers()
+    assert same_both_ways(DESCS["touchpad"], events, cuts) >= 10
+
+
 def _no_restore(text: str) -> str:
     """The reader's state is not put back before the assembler takes a read."""
     out, n = re.subn(r"\n( +)[^\n]* = snap\n", r"\n\1pass\n", text)
@@ -190,6 +224,10 @@ def _no_restore(text: str) -> str:
 
 
 BREAKS: dict[str, Callable[[str], str]] = {
+    # a touchpad's Y never changes
+    "mt-axis-dropped": lambda text: text.replace("vals[base + 1] = value\n", "pass\n"),
+    # a touchpad's slot is not put back before the assembler takes a read
+    "mt-restore-lost": lambda text: text.replace("cur = snap_cur\n", "pass\n"),
     # Y never changes
     "axis-dropped": lambda text: text.replace("c1 = value\n", "pass\n"),
     "restore-lost": _no_restore,
@@ -205,19 +243,22 @@ def test_the_comparison_catches_a_broken_live_reader(
     evdev_data: Path, monkeypatch: pytest.MonkeyPatch, how: str
 ) -> None:
     """The generated reader, broken on purpose, must disagree with the assembler."""
-    desc, events = _desc(evdev_data, "wacom-intuos4-6x9.desc")
+    name = "synaptics-touchpad.hp8470p.desc" if how.startswith("mt-") else "wacom-intuos4-6x9.desc"
+    desc, events = _desc(evdev_data, name)
     events = _with_drops(events)
     rng = random.Random(1)
     cuts = [rng.randrange(len(events)) for _ in range(len(events) // 3)]
     same_both_ways(desc, events, cuts)
-    real = live_code.source
+    module = live_mt_code if desc.is_multitouch else live_code
+    real = module.source
     text = real(FrameAssembler(desc), SurfaceUnits(desc))
     assert BREAKS[how](text) != text  # here, not inside pytest.raises below
 
     def broken(asm: FrameAssembler, units: SurfaceUnits) -> str:
         return BREAKS[how](real(asm, units))
 
-    monkeypatch.setattr(live_code, "source", broken)
+    monkeypatch.setattr(module, "source", broken)
     monkeypatch.setattr(live_code, "_FACTORIES", {})
     with pytest.raises(AssertionError):
         same_both_ways(desc, events, cuts)
+        same_both_ways(DESCS["touchpad"], *_two_fingers())

@@ -28,7 +28,7 @@ every read goes through the assembler. So the samples and the counters are
 the assembler's own, event for event (tests/evdev/test_evdev_live.py
 compares them on every recording cut into reads of one frame and of random
 sizes, and on random streams with keys, SYN_DROPPED and garbage).
-Multi-touch devices are not specialised: their reads take `read_samples`.
+The reader of a multi-touch device is written by live_mt_code.py.
 """
 
 from __future__ import annotations
@@ -39,6 +39,7 @@ from collections.abc import Callable, Iterable, Iterator
 from evdev import ecodes
 
 from stiction.drivers.blank_sample import BlankSample
+from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import Contact, FrameAssembler
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
@@ -74,11 +75,7 @@ class LiveReader:
         self.source = source
 
 
-def _minus(expr: str, offset: float) -> str:
-    """`(expr - offset)`, or `expr` for a zero offset: the same number either way
-    for the int values of an axis (an int minus 0.0 is that int as a float, as
-    the multiplication or division after it would make it anyway)."""
-    return expr if offset == 0 else f"({expr} - {offset!r})"
+_minus = live_mt_code.minus
 
 
 def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
@@ -332,19 +329,21 @@ def live_reader(
     gone: type[BaseException],
     long_read: int,
 ) -> LiveReader:
-    """The reader for `asm`'s device: generated for a single-tool device.
+    """The reader generated for `asm`'s device (live_mt_code.py writes a multi-touch one).
 
     `fallback(data)`: the assembler's path for a read (device.read_samples
     bound to asm and units); it takes every read of `long_read` bytes or
-    more, and every read of a multi-touch device. `end(data)`: the samples
-    that end the contacts once `gone` was raised after the read `data`.
+    more. `end(data)`: the samples that end the contacts once `gone` was
+    raised after the read `data`.
     """
-    if asm.multitouch:
-        return _assembler_reader(fallback, end, gone)
     from stiction.drivers.evdev.device import INPUT_EVENT
 
-    text = source(asm, units)
-    key = _key(asm, units)
+    if asm.multitouch:
+        text = live_mt_code.source(asm, units)
+        key: tuple[object, ...] = ("mt", asm.num_slots, asm._has_mt_pressure, *_key(asm, units))
+    else:
+        text = source(asm, units)
+        key = ("single", *_key(asm, units))
     make = _FACTORIES.get(key)
     if make is None:
         namespace: dict[str, object] = {
@@ -355,35 +354,16 @@ def live_reader(
             "unpack": INPUT_EVENT.iter_unpack,
         }
         body = text + "\nload()\nreturn samples, store, count\n"
-        full = "def make(asm, default_tool, fallback, end, gone, long_read):\n" + textwrap.indent(
-            body, "    "
+        head = "def make(asm, default_tool, fallback, end, gone, long_read):\n"
+        exec(
+            compile(
+                head + textwrap.indent(body, "    "),
+                f"<evdev live reader: {asm.desc.name}>",
+                "exec",
+            ),
+            namespace,
         )
-        exec(compile(full, f"<evdev live reader: {asm.desc.name}>", "exec"), namespace)
         make = namespace["make"]  # type: ignore[assignment]
         _FACTORIES[key] = make  # type: ignore[assignment]
     samples, store, count = make(asm, asm._default_tool, fallback, end, gone, long_read)  # type: ignore[misc]
     return LiveReader(samples, store, count, text)
-
-
-def _assembler_reader(fallback: Fallback, end: End, gone: type[BaseException]) -> LiveReader:
-    """Every read through the assembler (`fallback`): the multi-touch devices' reader."""
-    made = 0
-
-    def samples(reads: Iterable[bytes]) -> Iterator[PenSample]:
-        nonlocal made
-        data = b""
-        try:
-            for data in reads:
-                out = fallback(data)
-                made += len(out)
-                yield from out
-        except gone:
-            out = end(data)
-            made += len(out)
-            yield from out
-            raise
-
-    def count() -> int:
-        return made
-
-    return LiveReader(samples, lambda: None, count, None)

@@ -1,0 +1,249 @@
+"""The live reader's source for a multi-touch device (protocol B slots).
+
+live_code.py writes a reader per device; this module writes the one for
+touchpads and touchscreens. The common touchpad read is one frame in which
+the fingers already down move: ABS_MT_SLOT, ABS_MT_POSITION_X/Y, maybe
+ABS_MT_PRESSURE or ABS_MT_TOUCH_MAJOR, the legacy single-touch axes (which
+the assembler ignores on a multi-touch device), EV_MSC, SYN_REPORT; and
+every frame gives one sample per finger down. So the reader keeps:
+
+- `vals`, a flat list of each slot's x, y and pressure (slot i at 3*i), its
+  own copy of the assembler's slots, written in place by the events;
+- `active`, one entry per contact of the last frame (slot, id, tool, tip,
+  buttons, in slot order as the assembler lists them): what does not change
+  while only positions and pressures do;
+- `cur`, the current slot.
+
+Whatever can change the set of contacts or what they are -- a tracking id,
+a tool type, a distance (the tip), a slot out of range, a key, SYN_DROPPED,
+a read ending mid-frame -- goes to the assembler, as in live_code.py: the
+reader puts back the state it had when the read began (`snap`), hands it to
+the assembler (`store`) and lets it take the whole read. The samples are
+units._sample_function's, operation for operation: tilt is None for a
+slot's contact, the pressure None while a slot has never reported one.
+"""
+
+from __future__ import annotations
+
+from evdev import ecodes
+
+from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.units import SurfaceUnits
+
+ABS_MT_SLOT = ecodes.ABS_MT_SLOT
+#: slot codes that may change who is a contact or its tip/tool: the assembler's
+_HANDED_OVER = (ecodes.ABS_MT_TRACKING_ID, ecodes.ABS_MT_DISTANCE, ecodes.ABS_MT_TOOL_TYPE)
+#: the slot values the reader keeps, at these offsets in `vals`
+_KEPT = {ecodes.ABS_MT_POSITION_X: 0, ecodes.ABS_MT_POSITION_Y: 1, ecodes.ABS_MT_PRESSURE: 2}
+#: the order of the axis tests: the most frequent first
+_ORDER = (ecodes.ABS_MT_POSITION_X, ecodes.ABS_MT_POSITION_Y, ABS_MT_SLOT)
+
+
+def minus(expr: str, offset: float) -> str:
+    """`(expr - offset)`, or `expr` for a zero offset: the same number either way
+    for the int values of an axis (an int minus 0.0 is that int as a float, as
+    the multiplication or division after it would make it anyway)."""
+    return expr if offset == 0 else f"({expr} - {offset!r})"
+
+
+def _branches(asm: FrameAssembler) -> str:
+    ranges = asm._ranges
+    codes = sorted(ranges, key=lambda c: (_ORDER.index(c) if c in _ORDER else 99, c))
+    out: list[str] = []
+    for c in codes:
+        lo, hi = ranges[c]
+        check = f"                        if value < {lo} or value > {hi}:\n"
+        check += "                            bad += 1\n"
+        if c < ABS_MT_SLOT:
+            body = "                        pass  # a legacy single-touch axis: ignored\n"
+        elif c == ABS_MT_SLOT:
+            body = (
+                f"                        if value < 0 or value >= {asm.num_slots}:\n"
+                "                            break  # slot_out_of_range: the assembler's\n"
+                "                        cur = value\n"
+                "                        base = 3 * value\n"
+            )
+        elif c in _HANDED_OVER:
+            body = "                        break  # contacts may change: the assembler's\n"
+        elif c in _KEPT:
+            offset = f" + {_KEPT[c]}" if _KEPT[c] else ""
+            body = f"                        vals[base{offset}] = value\n" + check
+        else:
+            body = check  # ABS_MT_TOUCH_MAJOR and the like: checked, not kept
+        out.append(f"                    {'if' if not out else 'elif'} code == {c}:\n{body}")
+    out.append("                    else:\n                        unknown += 1\n")
+    return "".join(out)
+
+
+def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
+    x0, x1, y0, y1 = units._bounds
+    rx, ry = units._rx, units._ry
+    ps = units._pressure
+    if asm._has_mt_pressure and ps is not None:
+        pressure = (
+            "                        p = vals[b + 2]\n"
+            "                        if p is None:\n"
+            "                            s.pressure = None\n"
+            "                        else:\n"
+            f"                            pf = {minus('p', ps.offset)} * {ps.scale!r}\n"
+            "                            s.pressure = "
+            "0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf\n"
+        )
+    else:
+        pressure = "                        s.pressure = None\n"
+    return f"""                    t = sec + usec / 1_000_000
+                    for b, cid, tool, tip, btn in active:
+                        xs = vals[b]
+                        if xs < {x0!r}:
+                            xs = {x0!r}
+                        elif xs > {x1!r}:
+                            xs = {x1!r}
+                        ys = vals[b + 1]
+                        if ys < {y0!r}:
+                            ys = {y0!r}
+                        elif ys > {y1!r}:
+                            ys = {y1!r}
+                        s = blank()
+                        s.t = t
+                        s.x = {minus("xs", x0)} / {rx!r} / 1000
+                        s.y = {minus("ys", y0)} / {ry!r} / 1000
+                        s.tip = tip
+                        s.in_range = True
+                        s.contact = cid
+{pressure}                        s.tool = tool
+                        s.tilt_x = None
+                        s.tilt_y = None
+                        s.buttons = btn
+                        s.__class__ = pen
+                        out.append(s)
+"""
+
+
+def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
+    """The multi-touch reader's source for this device (read it to see what runs)."""
+    n = asm.num_slots
+    has_p = asm._has_mt_pressure
+    return f"""slots = asm._slots
+stats = asm._counts
+ok = False  # the reader holds the state; else the assembler holds it
+vals = [0] * {3 * n}  # x, y, pressure of slot i at 3 * i
+cur = 0
+active = ()  # (3 * slot, id, tool, tip, buttons) per contact of the last frame
+made_samples = 0
+
+
+def load():
+    \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
+    nonlocal ok, cur, active
+    if (
+        asm._n_pending
+        or asm._dropping
+        or asm._undo_abs
+        or asm._undo_slots
+        or asm._dirty
+        or asm._dirty_all
+        or asm._tid_changed
+        or asm._keys_ok is not None
+        or asm._keys_changed
+        or asm.needs_resync
+        or not asm._slot_ok
+    ):
+        ok = False
+        return
+    for i, s in enumerate(slots):
+        vals[3 * i] = s.x
+        vals[3 * i + 1] = s.y
+        vals[3 * i + 2] = s.pressure
+    cur = asm._slot
+    active = tuple((3 * c.slot, c.id, c.tool, c.tip, c.buttons) for c in asm._last)
+    ok = True
+
+
+def store():
+    \"\"\"Hand the assembler the state as of the last frame; the assembler holds it now.\"\"\"
+    nonlocal ok
+    if not ok:
+        return
+    ok = False
+    for i, s in enumerate(slots):
+        s.x = vals[3 * i]
+        s.y = vals[3 * i + 1]
+        s.pressure = vals[3 * i + 2]
+    asm._slot = cur
+    asm._slot_ok = True
+    asm._slot_start = (cur, True)
+    asm._last = tuple(
+        tnew(
+            Contact,
+            (
+                cid, b // 3, cid, tool, vals[b], vals[b + 1],
+                {"vals[b + 2]" if has_p else "None"}, tip, True, None, None, btn,
+            ),
+        )
+        for b, cid, tool, tip, btn in active
+    )
+
+
+def count():
+    return made_samples
+
+
+def samples(reads):
+    nonlocal cur, made_samples
+    data = b""
+    try:
+        for data in reads:
+            if not ok or len(data) >= long_read:
+                store()
+                out = fallback(data)
+                load()
+                made_samples += len(out)
+                yield from out
+                continue
+            snap = vals[:]
+            snap_cur = cur
+            base = 3 * cur
+            n = 0
+            bad = 0
+            unknown = 0
+            made = 0
+            out = []
+            for sec, usec, ev_type, code, value in unpack(data):
+                if ev_type == 3:  # EV_ABS
+                    n += 1
+{_branches(asm)}                    continue
+                if ev_type == 0:
+                    if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
+                        break
+                    # SYN_REPORT: the same contacts, some of them moved
+                    n = 0
+                    made += 1
+{_sample_code(asm, units)}                    continue
+                if ev_type == 1:  # EV_KEY: the assembler's
+                    break
+                n += 1  # EV_MSC and other types: no contact state
+            else:
+                if not n:
+                    asm._frames += made
+                    if bad:
+                        stats["value_out_of_range"] += bad
+                    if unknown:
+                        stats["unknown_code"] += unknown
+                    made_samples += len(out)
+                    yield from out
+                    continue
+            # the read needs the assembler (or ends mid-frame): it takes the whole read
+            vals[:] = snap
+            cur = snap_cur
+            store()
+            out = fallback(data)
+            load()
+            made_samples += len(out)
+            yield from out
+    except gone:
+        store()
+        out = end(data)
+        made_samples += len(out)
+        yield from out
+        raise
+"""
