@@ -200,6 +200,8 @@ def _two_fingers() -> tuple[list[Event], list[int]]:
     reads = [
         [slot(0), tid(5), x(10), slot(1), tid(6), touch, syn],
         [x(20), syn],  # slot 1 moves
+        [x(1020), syn],  # off the surface (X is 0..1000): its sample is clamped
+        [x(30), syn],
         [slot(0), y(30), syn],
         # slot 0 (no ABS_MT_SLOT), a frame, then slot 1 and a key: the assembler's
         [x(40), syn, slot(1), y(50), left, syn],
@@ -226,6 +228,8 @@ def _no_restore(text: str) -> str:
 BREAKS: dict[str, Callable[[str], str]] = {
     # a touchpad's Y never changes
     "mt-axis-dropped": lambda text: text.replace("vals[base + 1] = value\n", "pass\n"),
+    # a touchpad's position off the surface is not clamped (the Synaptics's X is)
+    "mt-clamp-skipped": lambda text: text.replace("    inside = False\n", "    pass\n"),
     # a touchpad's slot is not put back before the assembler takes a read
     "mt-restore-lost": lambda text: text.replace("cur = snap_cur\n", "pass\n"),
     # Y never changes

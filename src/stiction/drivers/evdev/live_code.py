@@ -35,6 +35,7 @@ from __future__ import annotations
 
 import textwrap
 from collections.abc import Callable, Iterable, Iterator
+from typing import cast
 
 from evdev import ecodes
 
@@ -86,26 +87,34 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
     x0, x1, y0, y1 = units._bounds
     rx, ry = units._rx, units._ry
-    lines = []
-    for name, code, lo, hi in (("xs", x, x0, x1), ("ys", y, y0, y1)):
-        lines += [
-            f"{name} = c{code}" if code in asm._abs else f"{name} = 0",
-            f"if {name} < {lo!r}:",
-            f"    {name} = {lo!r}",
-            f"elif {name} > {hi!r}:",
-            f"    {name} = {hi!r}",
-        ]
+    xv = f"c{x}" if x in asm._abs else "0"
+    yv = f"c{y}" if y in asm._abs else "0"
     if asm._has_touch_key:
         tip = "key_touch"
     elif asm._has_pressure:
         tip = f"c{p} > {asm._pressure_min!r}"
     else:
         tip = "False"
-    lines += [
+    lines = [
         "s = blank()",
         "s.t = sec + usec / 1_000_000",
-        f"s.x = {_minus('xs', x0)} / {rx!r} / 1000",
-        f"s.y = {_minus('ys', y0)} / {ry!r} / 1000",
+        # `inside`: the position is on the surface, nothing to clamp (the common case)
+        "if inside:",
+        f"    s.x = {_minus(xv, x0)} / {rx!r} / 1000",
+        f"    s.y = {_minus(yv, y0)} / {ry!r} / 1000",
+        "else:",
+    ]
+    for name, value, lo, hi in (("xs", xv, x0, x1), ("ys", yv, y0, y1)):
+        lines += [
+            f"    {name} = {value}",
+            f"    if {name} < {lo!r}:",
+            f"        {name} = {lo!r}",
+            f"    elif {name} > {hi!r}:",
+            f"        {name} = {hi!r}",
+        ]
+    lines += [
+        f"    s.x = {_minus('xs', x0)} / {rx!r} / 1000",
+        f"    s.y = {_minus('ys', y0)} / {ry!r} / 1000",
         f"s.tip = {tip}",
         "s.in_range = True",
         "s.contact = 0",
@@ -155,16 +164,22 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
     state = ", ".join([*(f"c{c}" for c in codes), "seen", "last_tool"])
     tool = "key_tool" if asm._has_tool_keys else "default_tool if seen else None"
+    x0, x1, y0, y1 = units._bounds
+    surface = {x: (x0, x1), y: (y0, y1)}
     branches = []
     for i, c in enumerate(codes):
         lo, hi = ranges[c]
-        branches.append(
-            f"            {'if' if i == 0 else 'elif'} code == {c}:\n"
-            f"                c{c} = value\n"
-            f"                if value < {lo} or value > {hi}:\n"
-            f"                    bad += 1\n"
-            + ("                seen = True\n" if c in (x, y) else "")
-        )
+        body = f"                c{c} = value\n"
+        body += f"                if value < {lo} or value > {hi}:\n                    bad += 1\n"
+        if c in surface:
+            if surface[c] == (lo, hi):
+                body += "                    inside = False\n"
+            else:
+                s_lo, s_hi = surface[c]
+                body += f"                if value < {s_lo!r} or value > {s_hi!r}:\n"
+                body += "                    inside = False\n"
+            body += "                seen = True\n"
+        branches.append(f"            {'if' if i == 0 else 'elif'} code == {c}:\n{body}")
     branches.append("            else:\n                unknown += 1\n")
     if asm._has_touch_key:
         tip = "key_touch"
@@ -178,6 +193,9 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
         f"{tip}, True, {f'c{tx}' if asm._has_tilt else 'None'}, "
         f"{f'c{ty}' if asm._has_tilt else 'None'}, buttons)"
     )
+    xv = f"c{x}" if x in asm._abs else "0"
+    yv = f"c{y}" if y in asm._abs else "0"
+    inside = f"{x0!r} <= {xv} <= {x1!r} and {y0!r} <= {yv} <= {y1!r}"
     return f"""abs_ = asm._abs
 stats = asm._counts
 ok = False  # the cells hold the assembler's state; else the assembler holds it
@@ -187,11 +205,12 @@ key_tool = None
 key_touch = False
 buttons = 0
 made_samples = 0
+inside = False  # the position is on the surface (False: the samples clamp it)
 
 
 def load():
     \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
-    nonlocal ok, {state}, key_tool, key_touch, buttons
+    nonlocal ok, {state}, key_tool, key_touch, buttons, inside
     if (
         asm._n_pending
         or asm._dropping
@@ -204,6 +223,7 @@ def load():
         ok = False
         return
 {_lines("c{c} = abs_[{c}]", codes, "    ")}    seen = asm._seen_position
+    inside = {inside}
     last = asm._last
     last_tool = last[0].tool if last else None
     key_tool = asm._key_tool
@@ -228,7 +248,7 @@ def count():
 
 
 def samples(reads):
-    nonlocal {state}, made_samples
+    nonlocal {state}, made_samples, inside
     data = b""
     try:
         for data in reads:
@@ -248,7 +268,7 @@ def samples(reads):
             rest = None
             for sec, usec, ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
-                    n += 1
+                    n = 1  # the frame has events (a flag, not a count)
 {textwrap.indent("".join(branches), " " * 8)}                    continue
                 if ev_type == 0:
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
@@ -266,7 +286,7 @@ def samples(reads):
 {_sample_code(units, asm, " " * 24)}                    continue
                 if ev_type == 1:  # EV_KEY: the assembler's
                     break
-                n += 1  # EV_MSC and other types: no contact state
+                n = 1  # EV_MSC and other types: no contact state
             else:
                 if not n:
                     asm._frames += made
@@ -297,9 +317,9 @@ def samples(reads):
 """
 
 
-_FACTORIES: dict[
-    tuple[object, ...], Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
-] = {}
+_Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
+#: the compiled readers, with their source, by everything the source depends on
+_FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
 
 
 def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
@@ -339,13 +359,12 @@ def live_reader(
     from stiction.drivers.evdev.device import INPUT_EVENT
 
     if asm.multitouch:
-        text = live_mt_code.source(asm, units)
         key: tuple[object, ...] = ("mt", asm.num_slots, asm._has_mt_pressure, *_key(asm, units))
     else:
-        text = source(asm, units)
         key = ("single", *_key(asm, units))
-    make = _FACTORIES.get(key)
-    if make is None:
+    made = _FACTORIES.get(key)
+    if made is None:
+        text = live_mt_code.source(asm, units) if asm.multitouch else source(asm, units)
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
             "Contact": Contact,
@@ -355,15 +374,10 @@ def live_reader(
         }
         body = text + "\nload()\nreturn samples, store, count\n"
         head = "def make(asm, default_tool, fallback, end, gone, long_read):\n"
-        exec(
-            compile(
-                head + textwrap.indent(body, "    "),
-                f"<evdev live reader: {asm.desc.name}>",
-                "exec",
-            ),
-            namespace,
-        )
-        make = namespace["make"]  # type: ignore[assignment]
-        _FACTORIES[key] = make  # type: ignore[assignment]
-    samples, store, count = make(asm, asm._default_tool, fallback, end, gone, long_read)  # type: ignore[misc]
+        name = f"<evdev live reader: {asm.desc.name}>"
+        exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
+        made = (cast(_Make, namespace["make"]), text)
+        _FACTORIES[key] = made
+    make, text = made
+    samples, store, count = make(asm, asm._default_tool, fallback, end, gone, long_read)
     return LiveReader(samples, store, count, text)

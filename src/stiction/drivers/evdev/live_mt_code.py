@@ -46,8 +46,10 @@ def minus(expr: str, offset: float) -> str:
     return expr if offset == 0 else f"({expr} - {offset!r})"
 
 
-def _branches(asm: FrameAssembler) -> str:
+def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
     ranges = asm._ranges
+    x0, x1, y0, y1 = units._bounds
+    surface = {ecodes.ABS_MT_POSITION_X: (x0, x1), ecodes.ABS_MT_POSITION_Y: (y0, y1)}
     codes = sorted(ranges, key=lambda c: (_ORDER.index(c) if c in _ORDER else 99, c))
     out: list[str] = []
     for c in codes:
@@ -68,6 +70,10 @@ def _branches(asm: FrameAssembler) -> str:
         elif c in _KEPT:
             offset = f" + {_KEPT[c]}" if _KEPT[c] else ""
             body = f"                        vals[base{offset}] = value\n" + check
+            if c in surface:
+                s_lo, s_hi = surface[c]
+                body += f"                        if value < {s_lo!r} or value > {s_hi!r}:\n"
+                body += "                            inside = False\n"
         else:
             body = check  # ABS_MT_TOUCH_MAJOR and the like: checked, not kept
         out.append(f"                    {'if' if not out else 'elif'} code == {c}:\n{body}")
@@ -93,20 +99,24 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
         pressure = "                        s.pressure = None\n"
     return f"""                    t = sec + usec / 1_000_000
                     for b, cid, tool, tip, btn in active:
-                        xs = vals[b]
-                        if xs < {x0!r}:
-                            xs = {x0!r}
-                        elif xs > {x1!r}:
-                            xs = {x1!r}
-                        ys = vals[b + 1]
-                        if ys < {y0!r}:
-                            ys = {y0!r}
-                        elif ys > {y1!r}:
-                            ys = {y1!r}
                         s = blank()
                         s.t = t
-                        s.x = {minus("xs", x0)} / {rx!r} / 1000
-                        s.y = {minus("ys", y0)} / {ry!r} / 1000
+                        if inside:  # on the surface, nothing to clamp (the common case)
+                            s.x = {minus("vals[b]", x0)} / {rx!r} / 1000
+                            s.y = {minus("vals[b + 1]", y0)} / {ry!r} / 1000
+                        else:
+                            xs = vals[b]
+                            if xs < {x0!r}:
+                                xs = {x0!r}
+                            elif xs > {x1!r}:
+                                xs = {x1!r}
+                            ys = vals[b + 1]
+                            if ys < {y0!r}:
+                                ys = {y0!r}
+                            elif ys > {y1!r}:
+                                ys = {y1!r}
+                            s.x = {minus("xs", x0)} / {rx!r} / 1000
+                            s.y = {minus("ys", y0)} / {ry!r} / 1000
                         s.tip = tip
                         s.in_range = True
                         s.contact = cid
@@ -123,6 +133,7 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     """The multi-touch reader's source for this device (read it to see what runs)."""
     n = asm.num_slots
     has_p = asm._has_mt_pressure
+    x0, x1, y0, y1 = units._bounds
     return f"""slots = asm._slots
 stats = asm._counts
 ok = False  # the reader holds the state; else the assembler holds it
@@ -130,11 +141,12 @@ vals = [0] * {3 * n}  # x, y, pressure of slot i at 3 * i
 cur = 0
 active = ()  # (3 * slot, id, tool, tip, buttons) per contact of the last frame
 made_samples = 0
+inside = False  # every contact's position is on the surface (False: the samples clamp)
 
 
 def load():
     \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
-    nonlocal ok, cur, active
+    nonlocal ok, cur, active, inside
     if (
         asm._n_pending
         or asm._dropping
@@ -156,6 +168,9 @@ def load():
         vals[3 * i + 2] = s.pressure
     cur = asm._slot
     active = tuple((3 * c.slot, c.id, c.tool, c.tip, c.buttons) for c in asm._last)
+    inside = all(
+        {x0!r} <= vals[b] <= {x1!r} and {y0!r} <= vals[b + 1] <= {y1!r} for b, *_ in active
+    )
     ok = True
 
 
@@ -189,7 +204,7 @@ def count():
 
 
 def samples(reads):
-    nonlocal cur, made_samples
+    nonlocal cur, made_samples, inside
     data = b""
     try:
         for data in reads:
@@ -210,8 +225,8 @@ def samples(reads):
             out = []
             for sec, usec, ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
-                    n += 1
-{_branches(asm)}                    continue
+                    n = 1  # the frame has events (a flag, not a count)
+{_branches(asm, units)}                    continue
                 if ev_type == 0:
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
@@ -221,7 +236,7 @@ def samples(reads):
 {_sample_code(asm, units)}                    continue
                 if ev_type == 1:  # EV_KEY: the assembler's
                     break
-                n += 1  # EV_MSC and other types: no contact state
+                n = 1  # EV_MSC and other types: no contact state
             else:
                 if not n:
                     asm._frames += made
