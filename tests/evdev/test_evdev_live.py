@@ -238,7 +238,9 @@ BREAKS: dict[str, Callable[[str], str]] = {
     # the tip does not follow BTN_TOUCH
     "tip-wrong": lambda text: text.replace("s.tip = key_touch\n", "s.tip = True\n"),
     # a read ending mid-frame is not handed over
-    "partial-frame-dropped": lambda text: text.replace("if not n:\n", "if True:\n"),
+    "partial-frame-dropped": lambda text: text.replace(
+        "if ev_type == 0:  # the read ends", "if True:  # the read ends"
+    ),
 }
 
 

@@ -260,7 +260,7 @@ def samples(reads):
                 yield from out
                 continue
             snap = ({state})
-            n = 0
+            ev_type = 0  # an empty read is a whole one
             bad = 0
             unknown = 0
             made = 0
@@ -268,27 +268,24 @@ def samples(reads):
             rest = None
             for sec, usec, ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
-                    n = 1  # the frame has events (a flag, not a count)
 {textwrap.indent("".join(branches), " " * 8)}                    continue
                 if ev_type == 0:
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
                     # SYN_REPORT: the frame is complete
-                    if n:
-                        n = 0
-                        tool = {tool}
-                        if tool is not last_tool:
-                            if last_tool is not None:
-                                break  # a contact ends or changes tool: the assembler's
-                            last_tool = tool
+                    tool = {tool}
+                    if tool is not last_tool:
+                        if last_tool is not None:
+                            break  # a contact ends or changes tool: the assembler's
+                        last_tool = tool
                     made += 1
                     if last_tool is not None:
 {_sample_code(units, asm, " " * 24)}                    continue
                 if ev_type == 1:  # EV_KEY: the assembler's
                     break
-                n = 1  # EV_MSC and other types: no contact state
+                # EV_MSC and other types: no contact state
             else:
-                if not n:
+                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
                     asm._frames += made
                     if bad:
                         stats["value_out_of_range"] += bad

@@ -218,27 +218,25 @@ def samples(reads):
             snap = vals[:]
             snap_cur = cur
             base = 3 * cur
-            n = 0
+            ev_type = 0  # an empty read is a whole one
             bad = 0
             unknown = 0
             made = 0
             out = []
             for sec, usec, ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
-                    n = 1  # the frame has events (a flag, not a count)
 {_branches(asm, units)}                    continue
                 if ev_type == 0:
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
                     # SYN_REPORT: the same contacts, some of them moved
-                    n = 0
                     made += 1
 {_sample_code(asm, units)}                    continue
                 if ev_type == 1:  # EV_KEY: the assembler's
                     break
-                n = 1  # EV_MSC and other types: no contact state
+                # EV_MSC and other types: no contact state
             else:
-                if not n:
+                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
                     asm._frames += made
                     if bad:
                         stats["value_out_of_range"] += bad
