@@ -44,7 +44,7 @@ from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import Contact, FrameAssembler
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
-from stiction.drivers.sample import PenSample
+from stiction.drivers.sample import PenSample, Tool
 
 #: the assembler's path for one read's bytes (device.read_samples, bound to asm and units)
 Fallback = Callable[[bytes], list[PenSample]]
@@ -162,7 +162,7 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     ranges = asm._ranges
     x, y = ecodes.ABS_X, ecodes.ABS_Y
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
-    state = ", ".join([*(f"c{c}" for c in codes), "seen", "last_tool"])
+    state = ", ".join([*(f"c{c}" for c in codes), "seen", "last_tool", "force"])
     tool = "key_tool" if asm._has_tool_keys else "default_tool if seen else None"
     x0, x1, y0, y1 = units._bounds
     surface = {x: (x0, x1), y: (y0, y1)}
@@ -201,6 +201,7 @@ stats = asm._counts
 ok = False  # the cells hold the assembler's state; else the assembler holds it
 {_lines("c{c} = 0", codes, "")}seen = False
 last_tool = None  # the tool of the last frame's contact; None: it had none
+force = False  # the assembler's _dirty_all, until this reader completes a frame
 key_tool = None
 key_touch = False
 buttons = 0
@@ -215,7 +216,6 @@ def load():
         asm._n_pending
         or asm._dropping
         or asm._undo_abs
-        or asm._dirty_all
         or asm._keys_ok is not None
         or asm._keys_changed
         or asm.needs_resync
@@ -223,6 +223,7 @@ def load():
         ok = False
         return
 {_lines("c{c} = abs_[{c}]", codes, "    ")}    seen = asm._seen_position
+    force = asm._dirty_all  # a new assembler's first frame: the same contact rule
     inside = {inside}
     last = asm._last
     last_tool = last[0].tool if last else None
@@ -240,6 +241,7 @@ def store():
     ok = False
 {_lines("abs_[{c}] = c{c}", codes, "    ")}    asm._seen_position = seen
     asm._seen_start = seen
+    asm._dirty_all = force
     asm._last = (tnew(Contact, {last_contact}),) if last_tool is not None else ()
 
 
@@ -273,6 +275,7 @@ def samples(reads):
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
                     # SYN_REPORT: the frame is complete
+                    force = False
                     tool = {tool}
                     if tool is not last_tool:
                         if last_tool is not None:
@@ -368,13 +371,17 @@ def live_reader(
             "blank": BlankSample,
             "pen": PenSample,
             "unpack": INPUT_EVENT.iter_unpack,
+            "pen_tool": Tool.PEN,
+            "finger": Tool.FINGER,
         }
         body = text + "\nload()\nreturn samples, store, count\n"
-        head = "def make(asm, default_tool, fallback, end, gone, long_read):\n"
+        head = "def make(asm, default_tool, fallback, end, gone, long_read, sample, key_buttons):\n"
         name = f"<evdev live reader: {asm.desc.name}>"
         exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
         made = (cast(_Make, namespace["make"]), text)
         _FACTORIES[key] = made
     make, text = made
-    samples, store, count = make(asm, asm._default_tool, fallback, end, gone, long_read)
+    samples, store, count = make(
+        asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
+    )
     return LiveReader(samples, store, count, text)

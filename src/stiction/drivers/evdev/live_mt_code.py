@@ -31,12 +31,22 @@ from stiction.drivers.evdev.frames import FrameAssembler
 from stiction.drivers.evdev.units import SurfaceUnits
 
 ABS_MT_SLOT = ecodes.ABS_MT_SLOT
-#: slot codes that may change who is a contact or its tip/tool: the assembler's
-_HANDED_OVER = (ecodes.ABS_MT_TRACKING_ID, ecodes.ABS_MT_DISTANCE, ecodes.ABS_MT_TOOL_TYPE)
+#: slot codes that change a contact's tip or tool: the assembler's
+_HANDED_OVER = (ecodes.ABS_MT_DISTANCE, ecodes.ABS_MT_TOOL_TYPE)
+ABS_MT_TRACKING_ID = ecodes.ABS_MT_TRACKING_ID
+MT_TOOL_PEN = 1
+MT_TOOL_PALM = 2
 #: the slot values the reader keeps, at these offsets in `vals`
 _KEPT = {ecodes.ABS_MT_POSITION_X: 0, ecodes.ABS_MT_POSITION_Y: 1, ecodes.ABS_MT_PRESSURE: 2}
 #: the order of the axis tests: the most frequent first
-_ORDER = (ecodes.ABS_MT_POSITION_X, ecodes.ABS_MT_POSITION_Y, ABS_MT_SLOT)
+_ORDER = (
+    ecodes.ABS_MT_POSITION_X,
+    ecodes.ABS_MT_POSITION_Y,
+    ecodes.ABS_X,
+    ecodes.ABS_Y,
+    ABS_MT_SLOT,
+    ecodes.ABS_MT_PRESSURE,
+)
 
 
 def minus(expr: str, offset: float) -> str:
@@ -64,6 +74,23 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
                 "                            break  # slot_out_of_range: the assembler's\n"
                 "                        cur = value\n"
                 "                        base = 3 * value\n"
+            )
+        elif c == ABS_MT_TRACKING_ID:
+            # FrameAssembler._set_slot_value's rules; the contacts are rebuilt at SYN_REPORT
+            body = (
+                "                        if tsnap is None:\n"
+                "                            tsnap = tids[:]\n"
+                "                        rebuild = True\n"
+                "                        if value < 0:\n"
+                "                            tids[cur] = -1\n"
+                "                        elif value != tids[cur]:\n"
+                "                            if value in tids:  # held by another slot\n"
+                "                                reused += 1\n"
+                "                                tids[cur] = -1\n"
+                "                            else:\n"
+                "                                if tids[cur] >= 0:\n"
+                "                                    replaced += 1\n"
+                "                                tids[cur] = value\n"
             )
         elif c in _HANDED_OVER:
             body = "                        break  # contacts may change: the assembler's\n"
@@ -98,7 +125,7 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
     else:
         pressure = "                        s.pressure = None\n"
     return f"""                    t = sec + usec / 1_000_000
-                    for b, cid, tool, tip, btn in active:
+                    for b, cid, tool, tip, btn, k in active:
                         s = blank()
                         s.t = t
                         if inside:  # on the surface, nothing to clamp (the common case)
@@ -126,6 +153,7 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
                         s.buttons = btn
                         s.__class__ = pen
                         out.append(s)
+                        lasts[k] = s
 """
 
 
@@ -134,29 +162,39 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     n = asm.num_slots
     has_p = asm._has_mt_pressure
     x0, x1, y0, y1 = units._bounds
+    inside = (
+        f"all({x0!r} <= vals[e[0]] <= {x1!r} and {y0!r} <= vals[e[0] + 1] <= {y1!r} "
+        "for e in active)"
+    )
     return f"""slots = asm._slots
 stats = asm._counts
+keys = asm._keys  # the assembler's own key set, changed in place
+valid_keys = asm._valid_keys
 ok = False  # the reader holds the state; else the assembler holds it
 vals = [0] * {3 * n}  # x, y, pressure of slot i at 3 * i
+tids = [-1] * {n}  # the tracking id of each slot
 cur = 0
-active = ()  # (3 * slot, id, tool, tip, buttons) per contact of the last frame
+#: (3 * slot, id, tool, tip, buttons, k) per contact of the last frame, in slot order;
+#: lasts[k] is the contact's last sample (the one an ended contact repeats)
+active = ()
+lasts = []
+buttons = 0
+rebuild = False  # the contacts are made anew at the next SYN_REPORT (_tid_changed)
+keys_changed = False
 made_samples = 0
 inside = False  # every contact's position is on the surface (False: the samples clamp)
 
 
 def load():
-    \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
-    nonlocal ok, cur, active, inside
+    \"\"\"Take the state from the assembler, if it stands at a frame boundary.\"\"\"
+    nonlocal ok, cur, active, lasts, buttons, rebuild, keys_changed, inside
     if (
         asm._n_pending
         or asm._dropping
         or asm._undo_abs
         or asm._undo_slots
         or asm._dirty
-        or asm._dirty_all
-        or asm._tid_changed
         or asm._keys_ok is not None
-        or asm._keys_changed
         or asm.needs_resync
         or not asm._slot_ok
     ):
@@ -166,11 +204,15 @@ def load():
         vals[3 * i] = s.x
         vals[3 * i + 1] = s.y
         vals[3 * i + 2] = s.pressure
+        tids[i] = s.tid
     cur = asm._slot
-    active = tuple((3 * c.slot, c.id, c.tool, c.tip, c.buttons) for c in asm._last)
-    inside = all(
-        {x0!r} <= vals[b] <= {x1!r} and {y0!r} <= vals[b + 1] <= {y1!r} for b, *_ in active
-    )
+    last = asm._last
+    active = tuple((3 * c.slot, c.id, c.tool, c.tip, c.buttons, k) for k, c in enumerate(last))
+    lasts = [sample(c, 0.0) for c in last]
+    buttons = asm._button_state
+    rebuild = asm._dirty_all or asm._tid_changed
+    keys_changed = asm._keys_changed
+    inside = {inside}
     ok = True
 
 
@@ -184,9 +226,13 @@ def store():
         s.x = vals[3 * i]
         s.y = vals[3 * i + 1]
         s.pressure = vals[3 * i + 2]
+        s.tid = tids[i]
     asm._slot = cur
     asm._slot_ok = True
     asm._slot_start = (cur, True)
+    asm._button_state = buttons
+    asm._dirty_all = asm._tid_changed = rebuild
+    asm._keys_changed = keys_changed
     asm._last = tuple(
         tnew(
             Contact,
@@ -195,7 +241,7 @@ def store():
                 {"vals[b + 2]" if has_p else "None"}, tip, True, None, None, btn,
             ),
         )
-        for b, cid, tool, tip, btn in active
+        for b, cid, tool, tip, btn, k in active
     )
 
 
@@ -204,7 +250,7 @@ def count():
 
 
 def samples(reads):
-    nonlocal cur, made_samples, inside
+    nonlocal cur, active, lasts, buttons, rebuild, keys_changed, made_samples, inside
     data = b""
     try:
         for data in reads:
@@ -215,12 +261,16 @@ def samples(reads):
                 made_samples += len(out)
                 yield from out
                 continue
-            snap = vals[:]
-            snap_cur = cur
+            snap = (vals[:], cur, active, buttons, rebuild, keys_changed, inside)
+            tsnap = None  # tids, kept once a tracking id comes
+            ksnap = None  # the key set, kept once a key comes
             base = 3 * cur
             ev_type = 0  # an empty read is a whole one
             bad = 0
             unknown = 0
+            reused = 0
+            replaced = 0
+            bad_key = 0
             made = 0
             out = []
             for sec, usec, ev_type, code, value in unpack(data):
@@ -229,11 +279,65 @@ def samples(reads):
                 if ev_type == 0:
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
-                    # SYN_REPORT: the same contacts, some of them moved
+                    # SYN_REPORT: FrameAssembler._commit's rules for a multi-touch frame
                     made += 1
+                    if keys_changed:
+                        keys_changed = False
+                        b = key_buttons()
+                        if b != buttons:
+                            buttons = b
+                            rebuild = True  # every contact carries the buttons
+                    if rebuild:
+                        # contacts may begin or end: made anew, in slot order
+                        rebuild = False
+                        made_now = []
+                        for i, sl in enumerate(slots):
+                            tid = tids[i]
+                            if tid >= 0:
+                                tt = sl.tool_type
+                                if tt != {MT_TOOL_PALM}:
+                                    made_now.append(
+                                        (
+                                            3 * i, tid, pen_tool if tt == {MT_TOOL_PEN} else finger,
+                                            sl.distance == 0, buttons, len(made_now),
+                                        )
+                                    )
+                        ids = [e[1] for e in made_now]
+                        for e in active:
+                            if e[1] not in ids:  # ended: its last sample, tip up, out of range
+                                o = lasts[e[5]]
+                                s = blank()
+                                s.t = sec + usec / 1_000_000
+                                s.x = o.x
+                                s.y = o.y
+                                s.tip = False
+                                s.in_range = False
+                                s.contact = o.contact
+                                s.pressure = o.pressure
+                                s.tool = o.tool
+                                s.tilt_x = None
+                                s.tilt_y = None
+                                s.buttons = o.buttons
+                                s.__class__ = pen
+                                out.append(s)
+                        active = tuple(made_now)
+                        lasts = [None] * len(made_now)
+                        inside = {inside}
 {_sample_code(asm, units)}                    continue
-                if ev_type == 1:  # EV_KEY: the assembler's
-                    break
+                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
+                    if code not in valid_keys:
+                        unknown += 1
+                    elif value == 0 or value == 1 or value == 2:
+                        if ksnap is None:
+                            ksnap = set(keys)
+                        if value:
+                            keys.add(code)
+                        else:
+                            keys.discard(code)
+                        keys_changed = True
+                    else:
+                        bad_key += 1
+                    continue
                 # EV_MSC and other types: no contact state
             else:
                 if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
@@ -242,12 +346,23 @@ def samples(reads):
                         stats["value_out_of_range"] += bad
                     if unknown:
                         stats["unknown_code"] += unknown
+                    if reused:
+                        stats["tracking_id_reused"] += reused
+                    if replaced:
+                        stats["tracking_id_replaced"] += replaced
+                    if bad_key:
+                        stats["bad_key_value"] += bad_key
                     made_samples += len(out)
                     yield from out
                     continue
-            # the read needs the assembler (or ends mid-frame): it takes the whole read
-            vals[:] = snap
-            cur = snap_cur
+            # the read needs the assembler (or ends mid-frame): it takes the whole read,
+            # from the state as it began
+            vals[:], cur, active, buttons, rebuild, keys_changed, inside = snap
+            if tsnap is not None:
+                tids[:] = tsnap
+            if ksnap is not None:
+                keys.clear()
+                keys.update(ksnap)
             store()
             out = fallback(data)
             load()
