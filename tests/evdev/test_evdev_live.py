@@ -224,6 +224,46 @@ def test_two_fingers_across_slot_switches_and_hand_overs() -> None:
     assert same_both_ways(DESCS["touchpad"], events, cuts) >= 10
 
 
+def _pen_story() -> tuple[list[Event], list[int]]:
+    """The test pen comes into proximity, presses its button, swaps to the eraser
+    and leaves, with dropped frames around key changes; one read per line."""
+
+    def ev(t: int, c: int, v: int) -> Event:
+        return (2, 0, t, c, v)
+
+    def key(code: int) -> Callable[[int], Event]:
+        return lambda v: ev(e.EV_KEY, code, v)
+
+    def axis(code: int) -> Callable[[int], Event]:
+        return lambda v: ev(e.EV_ABS, code, v)
+
+    pen, rubber, stylus, touch = (
+        key(c) for c in (e.BTN_TOOL_PEN, e.BTN_TOOL_RUBBER, e.BTN_STYLUS, e.BTN_TOUCH)
+    )
+    x, y, p = axis(e.ABS_X), axis(e.ABS_Y), axis(e.ABS_PRESSURE)
+    syn, drop = ev(e.EV_SYN, e.SYN_REPORT, 0), ev(e.EV_SYN, e.SYN_DROPPED, 0)
+    reads = [
+        [pen(1), x(500), y(600), syn],
+        [x(510), syn],
+        [touch(1), p(300), syn],
+        [stylus(1), x(520), syn],  # the button: buttons follow
+        [stylus(0), x(530), drop, syn],  # released in a dropped frame: still down after
+        [x(540), syn],
+        [pen(0), rubber(1), syn],  # the eraser, no contact ended
+        [x(30000), syn],  # off the surface: clamped
+        [touch(0), p(0), syn],
+        [rubber(0), syn],  # out of proximity: the last sample, ended
+        [x(600), syn],
+    ]
+    cuts = list(itertools.accumulate(len(r) for r in reads))
+    return [x for r in reads for x in r], cuts
+
+
+def test_pen_keys_drops_and_proximity() -> None:
+    events, cuts = _pen_story()
+    assert same_both_ways(DESCS["pen"], events, cuts) >= 9
+
+
 def _no_restore(text: str) -> str:
     """The reader's state is not put back before the assembler takes a read."""
     out, n = re.subn(r"\n( +)[^\n]* = snap\n", r"\n\1pass\n", text)
@@ -252,6 +292,10 @@ BREAKS: dict[str, Callable[[str], str]] = {
     "restore-lost": _no_restore,
     # the tip does not follow BTN_TOUCH
     "tip-wrong": lambda text: text.replace("s.tip = key_touch\n", "s.tip = True\n"),
+    # a pen's last sample, when it leaves proximity, still in range
+    "ended-in-range": lambda text: text.replace("s.in_range = False", "s.in_range = True"),
+    # a pen's key change not undone before the assembler takes the read
+    "keys-not-restored": lambda text: text.replace("keys.update(ksnap)", "pass"),
     # a read ending mid-frame is not handed over
     "partial-frame-dropped": lambda text: text.replace(
         "if ev_type == 0:  # the read ends", "if True:  # the read ends"
@@ -284,3 +328,4 @@ def test_the_comparison_catches_a_broken_live_reader(
         same_both_ways(desc, events, cuts)
         same_both_ways(desc, events, _frame_cuts(events))
         same_both_ways(DESCS["touchpad"], *_two_fingers())
+        same_both_ways(DESCS["pen"], *_pen_story())

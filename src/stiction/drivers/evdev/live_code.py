@@ -136,6 +136,7 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
     lines += [
         "s.buttons = buttons",
         "s.__class__ = pen",
+        "last_sample = s",
         "if first is None:",
         "    first = s",
         "elif rest is None:",
@@ -162,7 +163,17 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     ranges = asm._ranges
     x, y = ecodes.ABS_X, ecodes.ABS_Y
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
-    state = ", ".join([*(f"c{c}" for c in codes), "seen", "last_tool", "force"])
+    state = ", ".join(
+        [
+            *(f"c{c}" for c in codes),
+            "seen",
+            "last_tool",
+            "force",
+            "key_tool",
+            "key_touch",
+            "buttons",
+        ]
+    )
     tool = "key_tool" if asm._has_tool_keys else "default_tool if seen else None"
     x0, x1, y0, y1 = units._bounds
     surface = {x: (x0, x1), y: (y0, y1)}
@@ -198,6 +209,9 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     inside = f"{x0!r} <= {xv} <= {x1!r} and {y0!r} <= {yv} <= {y1!r}"
     return f"""abs_ = asm._abs
 stats = asm._counts
+keys = asm._keys  # the assembler's own key set, changed in place
+valid_keys = asm._valid_keys
+key_state = asm._key_state
 ok = False  # the cells hold the assembler's state; else the assembler holds it
 {_lines("c{c} = 0", codes, "")}seen = False
 last_tool = None  # the tool of the last frame's contact; None: it had none
@@ -207,11 +221,12 @@ key_touch = False
 buttons = 0
 made_samples = 0
 inside = False  # the position is on the surface (False: the samples clamp it)
+last_sample = None  # the last frame's sample: an ended contact repeats it
 
 
 def load():
     \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
-    nonlocal ok, {state}, key_tool, key_touch, buttons, inside
+    nonlocal ok, {state}, inside, last_sample
     if (
         asm._n_pending
         or asm._dropping
@@ -227,6 +242,7 @@ def load():
     inside = {inside}
     last = asm._last
     last_tool = last[0].tool if last else None
+    last_sample = sample(last[0], 0.0) if last else None
     key_tool = asm._key_tool
     key_touch = asm._key_touch
     buttons = asm._button_state
@@ -250,7 +266,7 @@ def count():
 
 
 def samples(reads):
-    nonlocal {state}, made_samples, inside
+    nonlocal {state}, made_samples, inside, last_sample
     data = b""
     try:
         for data in reads:
@@ -265,6 +281,9 @@ def samples(reads):
             ev_type = 0  # an empty read is a whole one
             bad = 0
             unknown = 0
+            bad_key = 0
+            keys_changed = False
+            ksnap = None  # the key set, kept once a key comes
             made = 0
             first = None  # the read's samples, yielded once the whole read went well
             rest = None
@@ -275,17 +294,57 @@ def samples(reads):
                     if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
                         break
                     # SYN_REPORT: the frame is complete
+                    # (single_code.py's rules: the contact follows the keys and axes)
                     force = False
-                    tool = {tool}
-                    if tool is not last_tool:
-                        if last_tool is not None:
-                            break  # a contact ends or changes tool: the assembler's
-                        last_tool = tool
                     made += 1
-                    if last_tool is not None:
-{_sample_code(units, asm, " " * 24)}                    continue
-                if ev_type == 1:  # EV_KEY: the assembler's
-                    break
+                    if keys_changed:
+                        keys_changed = False
+                        key_state()
+                        key_tool = asm._key_tool
+                        key_touch = asm._key_touch
+                        buttons = asm._button_state
+                    tool = {tool}
+                    if tool is None:
+                        if last_tool is not None:
+                            # the contact ended: its last sample, tip up, out of range
+                            o = last_sample
+                            s = blank()
+                            s.t = sec + usec / 1_000_000
+                            s.x = o.x
+                            s.y = o.y
+                            s.tip = False
+                            s.in_range = False
+                            s.contact = 0
+                            s.pressure = o.pressure
+                            s.tool = o.tool
+                            s.tilt_x = o.tilt_x
+                            s.tilt_y = o.tilt_y
+                            s.buttons = o.buttons
+                            s.__class__ = pen
+                            if first is None:
+                                first = s
+                            elif rest is None:
+                                rest = [s]
+                            else:
+                                rest.append(s)
+                            last_tool = None
+                        continue
+                    last_tool = tool
+{_sample_code(units, asm, " " * 20)}                    continue
+                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
+                    if code not in valid_keys:
+                        unknown += 1
+                    elif value == 0 or value == 1 or value == 2:
+                        if ksnap is None:
+                            ksnap = set(keys)
+                        if value:
+                            keys.add(code)
+                        else:
+                            keys.discard(code)
+                        keys_changed = True
+                    else:
+                        bad_key += 1
+                    continue
                 # EV_MSC and other types: no contact state
             else:
                 if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
@@ -294,6 +353,8 @@ def samples(reads):
                         stats["value_out_of_range"] += bad
                     if unknown:
                         stats["unknown_code"] += unknown
+                    if bad_key:
+                        stats["bad_key_value"] += bad_key
                     if first is not None:
                         made_samples += 1
                         yield first
@@ -303,6 +364,10 @@ def samples(reads):
                     continue
             # the read needs the assembler (or ends mid-frame): it takes the whole read
             {state} = snap
+            if ksnap is not None:
+                keys.clear()
+                keys.update(ksnap)
+                key_state()  # what follows from the keys, as it was
             store()
             out = fallback(data)
             load()
