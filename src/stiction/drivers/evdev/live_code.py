@@ -421,14 +421,14 @@ def live_reader(
     more. `end(data)`: the samples that end the contacts once `gone` was
     raised after the read `data`.
     """
-    from stiction.drivers.evdev.device import INPUT_EVENT
-
     if asm.multitouch:
         key: tuple[object, ...] = ("mt", asm.num_slots, asm._has_mt_pressure, *_key(asm, units))
     else:
         key = ("single", *_key(asm, units))
     made = _FACTORIES.get(key)
     if made is None:
+        from stiction.drivers.evdev.device import INPUT_EVENT  # device.py imports this module
+
         text = live_mt_code.source(asm, units) if asm.multitouch else source(asm, units)
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
