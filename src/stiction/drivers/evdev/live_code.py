@@ -295,7 +295,6 @@ def samples(reads):
                         break
                     # SYN_REPORT: the frame is complete
                     # (single_code.py's rules: the contact follows the keys and axes)
-                    force = False
                     made += 1
                     if keys_changed:
                         keys_changed = False
@@ -348,6 +347,8 @@ def samples(reads):
                 # EV_MSC and other types: no contact state
             else:
                 if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
+                    if made:
+                        force = False  # a frame was made: _dirty_all is done with
                     asm._frames += made
                     if bad:
                         stats["value_out_of_range"] += bad
@@ -389,6 +390,7 @@ _FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
 
 def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
     """Everything source() reads: devices that agree on it share one compiled reader."""
+    scales = (units._pressure, units._tilt_x, units._tilt_y)
     return (
         tuple(sorted(asm._ranges.items())),
         asm._has_tool_keys,
@@ -400,9 +402,8 @@ def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
         units._bounds,
         units._rx,
         units._ry,
-        units._pressure,
-        units._tilt_x,
-        units._tilt_y,
+        # (offset, scale) pairs: hashing them is cheaper than the dataclasses
+        *((v.offset, v.scale) if v is not None else None for v in scales),
     )
 
 

@@ -66,6 +66,8 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
         lo, hi = ranges[c]
         check = f"                        if value < {lo} or value > {hi}:\n"
         check += "                            bad += 1\n"
+        if c < ABS_MT_SLOT and c not in _ORDER:
+            continue  # the rarer legacy axes: tested together, below
         if c < ABS_MT_SLOT:
             body = "                        pass  # a legacy single-touch axis: ignored\n"
         elif c == ABS_MT_SLOT:
@@ -104,6 +106,13 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
         else:
             body = check  # ABS_MT_TOUCH_MAJOR and the like: checked, not kept
         out.append(f"                    {'if' if not out else 'elif'} code == {c}:\n{body}")
+    legacy = sorted(c for c in codes if c < ABS_MT_SLOT and c not in _ORDER)
+    if legacy:
+        out.append(
+            f"                    elif code < {ABS_MT_SLOT}:\n"
+            f"                        if code not in {set(legacy)!r}:\n"
+            "                            unknown += 1\n"
+        )
     out.append("                    else:\n                        unknown += 1\n")
     return "".join(out)
 
