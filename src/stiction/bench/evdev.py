@@ -15,7 +15,7 @@ evdev's C reader does the same unpacking):
 - stiction: `FrameAssembler.feed_many()` on the tuples (the live reader's
   path: it reads the node's bytes itself), which also keeps undo state for
   SYN_DROPPED, checks ranges, drops palms and ends contacts;
-- stiction, samples (the figure issue 14's target line judges): events to
+- stiction, samples (one of the two figures issue 14's target line judges): events to
   PenSamples in surface metres, one per contact and per ended contact, as
   the daemon receives them from a replay -- `ReplaySource.samples()` itself,
   run to the end: chunks of whole frames walked by one numba-compiled loop

@@ -151,6 +151,73 @@ def _lines(template: str, codes: list[int], indent: str) -> str:
     return "".join(indent + template.format(c=c) + "\n" for c in codes)
 
 
+def _ended_code(indent: str) -> str:
+    """Statements that collect the ended contact's sample: its last one, tip up,
+    out of range, at this frame's time (units.sample on the ended Contact)."""
+    lines = [
+        "o = last_sample",
+        "s = blank()",
+        "s.t = sec + usec / 1_000_000",
+        "s.x = o.x",
+        "s.y = o.y",
+        "s.tip = False",
+        "s.in_range = False",
+        "s.contact = 0",
+        "s.pressure = o.pressure",
+        "s.tool = o.tool",
+        "s.tilt_x = o.tilt_x",
+        "s.tilt_y = o.tilt_y",
+        "s.buttons = o.buttons",
+        "s.__class__ = pen",
+        "if first is None:",
+        "    first = s",
+        "elif rest is None:",
+        "    rest = [s]",
+        "else:",
+        "    rest.append(s)",
+        "last_tool = None",
+    ]
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
+def _tool_code(asm: FrameAssembler) -> str:
+    """At SYN_REPORT: the keys' consequences, then the contact's tool (single_code.py's
+    rules); `continue` when the frame has no contact, else on to its sample.
+
+    With BTN_TOOL_* keys the tool is the keys' (`key_tool`), and the last frame's
+    tool equals it until a key changes (load() checks so), so only a frame with a
+    key event looks at it again. Without, the tool is the default once a
+    position came (`seen`)."""
+    refresh = (
+        "                        keys_changed = False\n"
+        "                        key_state()\n"
+        "                        key_tool = asm._key_tool\n"
+        "                        key_touch = asm._key_touch\n"
+        "                        buttons = asm._button_state\n"
+    )
+    if asm._has_tool_keys:
+        return (
+            "                    if keys_changed:\n"
+            + refresh
+            + "                        if key_tool is None:\n"
+            + "                            if last_tool is not None:\n"
+            + _ended_code(" " * 32)
+            + "                            continue\n"
+            + "                        last_tool = key_tool\n"
+            + "                    elif last_tool is None:\n"
+            + "                        continue  # no contact\n"
+        )
+    return (
+        "                    if keys_changed:\n"
+        + refresh
+        + "                    if not seen:\n"
+        + "                        if last_tool is not None:\n"
+        + _ended_code(" " * 28)
+        + "                        continue\n"
+        + "                    last_tool = default_tool\n"
+    )
+
+
 def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     """The reader's source for this device (read it to see what runs).
 
@@ -174,7 +241,8 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
             "buttons",
         ]
     )
-    tool = "key_tool" if asm._has_tool_keys else "default_tool if seen else None"
+    # with tool keys, the contact's tool is the keys' (see _tool_code)
+    consistent = "(last_tool is None) == (key_tool is None)" if asm._has_tool_keys else "True"
     x0, x1, y0, y1 = units._bounds
     surface = {x: (x0, x1), y: (y0, y1)}
     branches = []
@@ -246,7 +314,7 @@ def load():
     key_tool = asm._key_tool
     key_touch = asm._key_touch
     buttons = asm._button_state
-    ok = True
+    ok = {consistent}
 
 
 def store():
@@ -296,40 +364,7 @@ def samples(reads):
                     # SYN_REPORT: the frame is complete
                     # (single_code.py's rules: the contact follows the keys and axes)
                     made += 1
-                    if keys_changed:
-                        keys_changed = False
-                        key_state()
-                        key_tool = asm._key_tool
-                        key_touch = asm._key_touch
-                        buttons = asm._button_state
-                    tool = {tool}
-                    if tool is None:
-                        if last_tool is not None:
-                            # the contact ended: its last sample, tip up, out of range
-                            o = last_sample
-                            s = blank()
-                            s.t = sec + usec / 1_000_000
-                            s.x = o.x
-                            s.y = o.y
-                            s.tip = False
-                            s.in_range = False
-                            s.contact = 0
-                            s.pressure = o.pressure
-                            s.tool = o.tool
-                            s.tilt_x = o.tilt_x
-                            s.tilt_y = o.tilt_y
-                            s.buttons = o.buttons
-                            s.__class__ = pen
-                            if first is None:
-                                first = s
-                            elif rest is None:
-                                rest = [s]
-                            else:
-                                rest.append(s)
-                            last_tool = None
-                        continue
-                    last_tool = tool
-{_sample_code(units, asm, " " * 20)}                    continue
+{_tool_code(asm)}{_sample_code(units, asm, " " * 20)}                    continue
                 if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
                     if code not in valid_keys:
                         unknown += 1
