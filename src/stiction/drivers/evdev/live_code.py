@@ -249,7 +249,8 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     for i, c in enumerate(codes):
         lo, hi = ranges[c]
         body = f"                c{c} = value\n"
-        body += f"                if value < {lo} or value > {hi}:\n                    bad += 1\n"
+        body += f"                if value < {lo} or value > {hi}:\n"
+        body += "                    odd = (*(odd or ()), 'value_out_of_range')\n"
         if c in surface:
             if surface[c] == (lo, hi):
                 body += "                    inside = False\n"
@@ -259,7 +260,7 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
                 body += "                    inside = False\n"
             body += "                seen = True\n"
         branches.append(f"            {'if' if i == 0 else 'elif'} code == {c}:\n{body}")
-    branches.append("            else:\n                unknown += 1\n")
+    branches.append("            else:\n                odd = (*(odd or ()), 'unknown_code')\n")
     if asm._has_touch_key:
         tip = "key_touch"
     elif asm._has_pressure:
@@ -347,9 +348,7 @@ def samples(reads):
                 continue
             snap = ({state})
             ev_type = 0  # an empty read is a whole one
-            bad = 0
-            unknown = 0
-            bad_key = 0
+            odd = None  # the read's anomalies, counted once the read went well
             keys_changed = False
             ksnap = None  # the key set, kept once a key comes
             made = 0
@@ -367,7 +366,7 @@ def samples(reads):
 {_tool_code(asm)}{_sample_code(units, asm, " " * 20)}                    continue
                 if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
                     if code not in valid_keys:
-                        unknown += 1
+                        odd = (*(odd or ()), 'unknown_code')
                     elif value == 0 or value == 1 or value == 2:
                         if ksnap is None:
                             ksnap = set(keys)
@@ -377,7 +376,7 @@ def samples(reads):
                             keys.discard(code)
                         keys_changed = True
                     else:
-                        bad_key += 1
+                        odd = (*(odd or ()), 'bad_key_value')
                     continue
                 # EV_MSC and other types: no contact state
             else:
@@ -385,12 +384,9 @@ def samples(reads):
                     if made:
                         force = False  # a frame was made: _dirty_all is done with
                     asm._frames += made
-                    if bad:
-                        stats["value_out_of_range"] += bad
-                    if unknown:
-                        stats["unknown_code"] += unknown
-                    if bad_key:
-                        stats["bad_key_value"] += bad_key
+                    if odd is not None:
+                        for name in odd:
+                            stats[name] += 1
                     if first is not None:
                         made_samples += 1
                         yield first

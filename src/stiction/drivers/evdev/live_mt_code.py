@@ -65,7 +65,7 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
     for c in codes:
         lo, hi = ranges[c]
         check = f"                        if value < {lo} or value > {hi}:\n"
-        check += "                            bad += 1\n"
+        check += "                            odd = (*(odd or ()), 'value_out_of_range')\n"
         if c < ABS_MT_SLOT and c not in _ORDER:
             continue  # the rarer legacy axes: tested together, below
         if c < ABS_MT_SLOT:
@@ -87,11 +87,11 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
                 "                            tids[cur] = -1\n"
                 "                        elif value != tids[cur]:\n"
                 "                            if value in tids:  # held by another slot\n"
-                "                                reused += 1\n"
+                "                                odd = (*(odd or ()), 'tracking_id_reused')\n"
                 "                                tids[cur] = -1\n"
                 "                            else:\n"
                 "                                if tids[cur] >= 0:\n"
-                "                                    replaced += 1\n"
+                "                                    odd = (*(odd or ()), 'tracking_id_replaced')\n"
                 "                                tids[cur] = value\n"
             )
         elif c in _HANDED_OVER:
@@ -111,9 +111,11 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
         out.append(
             f"                    elif code < {ABS_MT_SLOT}:\n"
             f"                        if code not in {set(legacy)!r}:\n"
-            "                            unknown += 1\n"
+            "                            odd = (*(odd or ()), 'unknown_code')\n"
         )
-    out.append("                    else:\n                        unknown += 1\n")
+    out.append(
+        "                    else:\n                        odd = (*(odd or ()), 'unknown_code')\n"
+    )
     return "".join(out)
 
 
@@ -161,7 +163,12 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
                         s.tilt_y = None
                         s.buttons = btn
                         s.__class__ = pen
-                        out.append(s)
+                        if first is None:
+                            first = s
+                        elif rest is None:
+                            rest = [s]
+                        else:
+                            rest.append(s)
                         lasts[k] = s
 """
 
@@ -275,13 +282,10 @@ def samples(reads):
             ksnap = None  # the key set, kept once a key comes
             base = 3 * cur
             ev_type = 0  # an empty read is a whole one
-            bad = 0
-            unknown = 0
-            reused = 0
-            replaced = 0
-            bad_key = 0
+            odd = None  # the read's anomalies, counted once the read went well
             made = 0
-            out = []
+            first = None  # the read's samples, yielded once the whole read went well
+            rest = None
             for sec, usec, ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
 {_branches(asm, units)}                    continue
@@ -328,14 +332,19 @@ def samples(reads):
                                 s.tilt_y = None
                                 s.buttons = o.buttons
                                 s.__class__ = pen
-                                out.append(s)
+                                if first is None:
+                                    first = s
+                                elif rest is None:
+                                    rest = [s]
+                                else:
+                                    rest.append(s)
                         active = tuple(made_now)
                         lasts = [None] * len(made_now)
                         inside = {inside}
 {_sample_code(asm, units)}                    continue
                 if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
                     if code not in valid_keys:
-                        unknown += 1
+                        odd = (*(odd or ()), 'unknown_code')
                     elif value == 0 or value == 1 or value == 2:
                         if ksnap is None:
                             ksnap = set(keys)
@@ -345,24 +354,21 @@ def samples(reads):
                             keys.discard(code)
                         keys_changed = True
                     else:
-                        bad_key += 1
+                        odd = (*(odd or ()), 'bad_key_value')
                     continue
                 # EV_MSC and other types: no contact state
             else:
                 if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
                     asm._frames += made
-                    if bad:
-                        stats["value_out_of_range"] += bad
-                    if unknown:
-                        stats["unknown_code"] += unknown
-                    if reused:
-                        stats["tracking_id_reused"] += reused
-                    if replaced:
-                        stats["tracking_id_replaced"] += replaced
-                    if bad_key:
-                        stats["bad_key_value"] += bad_key
-                    made_samples += len(out)
-                    yield from out
+                    if odd is not None:
+                        for name in odd:
+                            stats[name] += 1
+                    if first is not None:
+                        made_samples += 1
+                        yield first
+                        if rest is not None:
+                            made_samples += len(rest)
+                            yield from rest
                     continue
             # the read needs the assembler (or ends mid-frame): it takes the whole read,
             # from the state as it began
