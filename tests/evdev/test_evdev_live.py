@@ -324,6 +324,7 @@ def test_the_comparison_catches_a_broken_live_reader(
 
     monkeypatch.setattr(module, "source", broken)
     monkeypatch.setattr(live_code, "_FACTORIES", {})
+    monkeypatch.setattr(live_code, "_BY_IDENTITY", {})
     with pytest.raises(AssertionError):
         same_both_ways(desc, events, cuts)
         same_both_ways(desc, events, _frame_cuts(events))

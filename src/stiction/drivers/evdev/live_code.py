@@ -417,6 +417,9 @@ def samples(reads):
 _Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
 #: the compiled readers, with their source, by everything the source depends on
 _FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
+#: the same by the description and units objects themselves (a DeviceSource reuses
+#: its own; comparing a key is a deep tuple comparison): (desc, units, compiled)
+_BY_IDENTITY: dict[tuple[int, int], tuple[object, object, tuple[_Make, str]]] = {}
 
 
 def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
@@ -453,6 +456,23 @@ def live_reader(
     more. `end(data)`: the samples that end the contacts once `gone` was
     raised after the read `data`.
     """
+    known = _BY_IDENTITY.get((id(asm.desc), id(units)))
+    if known is not None and known[0] is asm.desc and known[1] is units:
+        make, text = known[2]
+    else:
+        compiled = _compiled(asm, units)
+        if len(_BY_IDENTITY) >= 64:  # a bound for a process that opens many devices
+            _BY_IDENTITY.clear()
+        _BY_IDENTITY[(id(asm.desc), id(units))] = (asm.desc, units, compiled)
+        make, text = compiled
+    samples, store, count = make(
+        asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
+    )
+    return LiveReader(samples, store, count, text)
+
+
+def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
+    """The compiled reader for the device and its source, made at the first call."""
     if asm.multitouch:
         key: tuple[object, ...] = ("mt", asm.num_slots, asm._has_mt_pressure, *_key(asm, units))
     else:
@@ -477,8 +497,4 @@ def live_reader(
         exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
         made = (cast(_Make, namespace["make"]), text)
         _FACTORIES[key] = made
-    make, text = made
-    samples, store, count = make(
-        asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
-    )
-    return LiveReader(samples, store, count, text)
+    return made
