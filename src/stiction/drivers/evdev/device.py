@@ -69,8 +69,9 @@ def read_samples(
 ) -> list[PenSample]:
     """The samples of the frames one read()'s bytes (whole events) complete.
 
-    DeviceSource.samples() calls this for every read(); the benchmark times it.
-    A read of many events (a reader that fell behind) goes through the
+    The reference path for a live read, and the generated reader's
+    (`live_reader_for`) hand-over for the reads it does not take. A read of
+    many events (a reader that fell behind) goes through the
     compiled loop (columns.py) -- once it is compiled: compile=False, the
     default, never makes a live reader wait seconds for numba (a replay or
     `columns.warm()` compiles it). A short read -- the usual frame or two of

@@ -1,34 +1,38 @@
-"""One read() of a single-tool device straight to PenSamples: a reader written per device.
+"""One read() of a live device straight to PenSamples: a reader written per device.
 
-A live pen delivers one frame per read(): four or five events and one
-sample. Through the assembler (`device.read_samples`) that costs about
+A live pen delivers one frame per read(): four to seven events and one
+sample. Through the assembler (`device.read_samples`) that cost about
 4 us, most of it per call, not per event: the events become a list of
 tuples, the feed loop loads the assembler's state into locals and writes it
 back, a Frame and a Contact are built only to be taken apart by
 `frame_samples`. Here, as hid/report_code.py does for HID report layouts,
-the whole read is written out as Python source for the device at hand:
+the reader is written out as Python source for the device at hand, and is
+itself the samples generator (no call and no list per read):
 
-- the events are walked straight off `struct.iter_unpack`, no list;
-- each axis's value at the last SYN_REPORT lives in a closure cell
-  (`c<code>`), read and written as cheaply as a local, so nothing is loaded
-  from or stored into the assembler per call; the frame in progress is
-  held in locals (`a<code>`);
+- the events are walked straight off `struct.iter_unpack`;
+- each axis's value lives in a closure cell (`c<code>`), read and written
+  as cheaply as a local, so nothing is loaded from or stored into the
+  assembler per read; a snapshot taken as the read begins puts them back
+  if the read has to go to the assembler after all;
 - range checks compare against literal numbers, and at SYN_REPORT the
   PenSample is filled in directly with the units' arithmetic written in
-  (the same operations, in the same order, as units._sample_function).
+  (the same operations, in the same order, as units._sample_function);
+- keys change the assembler's own key set, and the assembler works out
+  what follows (`_key_state`: tool, tip, buttons) at SYN_REPORT; a contact
+  that ends repeats its last sample tip-up and out of range, as
+  frame_samples does with the assembler's ended Contact.
 
-Only the common case runs here: whole frames of axis, EV_MSC and SYN_REPORT
-events, with the assembler at a frame boundary. Anything else -- a key, a
-SYN_DROPPED or other SYN code, a read ending mid-frame, a long read (the
-compiled loop's, columns.py) -- hands the assembler the state as of the last
-frame this reader completed (`store`), feeds it the rest of the read from
-the first event of the unfinished frame, and takes the state back
-(`load`) once the assembler is at a clean frame boundary again; until then
-every read goes through the assembler. So the samples and the counters are
-the assembler's own, event for event (tests/evdev/test_evdev_live.py
-compares them on every recording cut into reads of one frame and of random
-sizes, and on random streams with keys, SYN_DROPPED and garbage).
-The reader of a multi-touch device is written by live_mt_code.py.
+Anything else -- a SYN_DROPPED or other SYN code, a read ending mid-frame,
+a long read (the compiled loop's, columns.py) -- is handed over: the state
+as the read began is written into the assembler (`store`), the assembler
+takes the whole read, and the reader takes the state back (`load`) once
+the assembler stands at a frame boundary; until then every read goes
+through the assembler. Counters are added only when a read went well, so
+the samples and the counters are the assembler's own
+(tests/evdev/test_evdev_live.py compares them read by read on every
+recording cut into reads of one frame and of random sizes, and on random
+streams with keys, SYN_DROPPED and garbage). The reader of a multi-touch
+device is written by live_mt_code.py.
 """
 
 from __future__ import annotations

@@ -12,15 +12,20 @@ every frame gives one sample per finger down. So the reader keeps:
 - `active`, one entry per contact of the last frame (slot, id, tool, tip,
   buttons, in slot order as the assembler lists them): what does not change
   while only positions and pressures do;
-- `cur`, the current slot.
+- `tids`, each slot's tracking id, and `cur`, the current slot.
 
-Whatever can change the set of contacts or what they are -- a tracking id,
-a tool type, a distance (the tip), a slot out of range, a key, SYN_DROPPED,
-a read ending mid-frame -- goes to the assembler, as in live_code.py: the
-reader puts back the state it had when the read began (`snap`), hands it to
-the assembler (`store`) and lets it take the whole read. The samples are
-units._sample_function's, operation for operation: tilt is None for a
-slot's contact, the pressure None while a slot has never reported one.
+Keys (the assembler's own key set; the buttons are worked out again at
+SYN_REPORT) and tracking ids (FrameAssembler._set_slot_value's rules,
+reused and replaced ids counted) are taken here too: the contacts are then
+made anew in slot order at SYN_REPORT, and a contact that ended repeats
+its last sample tip-up and out of range (`lasts`). What changes a
+contact's tip or tool -- ABS_MT_DISTANCE, ABS_MT_TOOL_TYPE -- a slot out of
+range, SYN_DROPPED and a read ending mid-frame go to the assembler, as in
+live_code.py: the reader puts back the state it had when the read began
+(`snap`), hands it to the assembler (`store`) and lets it take the whole
+read. The samples are units._sample_function's, operation for operation:
+tilt is None for a slot's contact, the pressure None while a slot has
+never reported one.
 """
 
 from __future__ import annotations
