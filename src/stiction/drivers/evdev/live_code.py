@@ -239,10 +239,6 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
             *(f"c{c}" for c in codes),
             "seen",
             "last_tool",
-            "force",
-            "key_tool",
-            "key_touch",
-            "buttons",
         ]
     )
     # with tool keys, the contact's tool is the keys' (see _tool_code)
@@ -288,7 +284,8 @@ key_state = asm._key_state
 ok = False  # the cells hold the assembler's state; else the assembler holds it
 {_lines("c{c} = 0", codes, "")}seen = False
 last_tool = None  # the tool of the last frame's contact; None: it had none
-force = False  # the assembler's _dirty_all, until this reader completes a frame
+force = False  # the assembler's _dirty_all when loaded: kept until a frame is made
+loaded_frames = 0  # the assembler's frame count when loaded
 key_tool = None
 key_touch = False
 buttons = 0
@@ -299,7 +296,8 @@ last_sample = None  # the last frame's sample: an ended contact repeats it
 
 def load():
     \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
-    nonlocal ok, {state}, inside, last_sample
+    nonlocal ok, {state}, inside, last_sample, force, loaded_frames
+    nonlocal key_tool, key_touch, buttons
     if (
         asm._n_pending
         or asm._dropping
@@ -312,6 +310,7 @@ def load():
         return
 {_lines("c{c} = abs_[{c}]", codes, "    ")}    seen = asm._seen_position
     force = asm._dirty_all  # a new assembler's first frame: the same contact rule
+    loaded_frames = asm._frames
     inside = {inside}
     last = asm._last
     last_tool = last[0].tool if last else None
@@ -330,7 +329,7 @@ def store():
     ok = False
 {_lines("abs_[{c}] = c{c}", codes, "    ")}    asm._seen_position = seen
     asm._seen_start = seen
-    asm._dirty_all = force
+    asm._dirty_all = force and asm._frames == loaded_frames
     asm._last = (tnew(Contact, {last_contact}),) if last_tool is not None else ()
 
 
@@ -339,7 +338,7 @@ def count():
 
 
 def samples(reads):
-    nonlocal {state}, made_samples, inside, last_sample
+    nonlocal {state}, made_samples, inside, last_sample, key_tool, key_touch, buttons
     data = b""
     try:
         for data in reads:
@@ -385,8 +384,6 @@ def samples(reads):
                 # EV_MSC and other types: no contact state
             else:
                 if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
-                    if made:
-                        force = False  # a frame was made: _dirty_all is done with
                     asm._frames += made
                     if odd is not None:
                         for name in odd:
@@ -404,6 +401,9 @@ def samples(reads):
                 keys.clear()
                 keys.update(ksnap)
                 key_state()  # what follows from the keys, as it was
+                key_tool = asm._key_tool
+                key_touch = asm._key_touch
+                buttons = asm._button_state
             store()
             out = fallback(data)
             load()
