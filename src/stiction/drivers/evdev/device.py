@@ -250,6 +250,8 @@ class DeviceSource(EvdevSourceBase):
 
     def samples(self) -> Iterator[PenSample]:
         """Each read()'s samples (`live_reader_for`); every contact ends before DeviceGone."""
+        if self._live is not None:  # an earlier samples() call's count stays counted
+            self._stats["samples"] += self._live.count()
         reader = live_reader_for(self._new_assembler(), self._units)
         self._live = reader
         # a function returning the reader's generator, not a generator itself: one
