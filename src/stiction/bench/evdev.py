@@ -15,7 +15,7 @@ evdev's C reader does the same unpacking):
 - stiction: `FrameAssembler.feed_many()` on the tuples (the live reader's
   path: it reads the node's bytes itself), which also keeps undo state for
   SYN_DROPPED, checks ranges, drops palms and ends contacts;
-- stiction, samples (the figure issue 14's target line judges): events to
+- stiction, samples (one of the two figures issue 14's target line judges): events to
   PenSamples in surface metres, one per contact and per ended contact, as
   the daemon receives them from a replay -- `ReplaySource.samples()` itself,
   run to the end: chunks of whole frames walked by one numba-compiled loop
@@ -23,11 +23,15 @@ evdev's C reader does the same unpacking):
   packed into `struct input_event` bytes once, when loaded (not timed), so
   this path too starts from what a read() returns; the loop is compiled (or
   loaded from numba's cache) by the check run before the timing;
-- per read: the live device's path, `DeviceSource.samples()`'s
-  `read_samples()` on each read(), with the bytes cut into one read() per
-  frame as a device at its report rate delivers them: too few events for
-  the compiled loop to pay, so the frame assembler and `frame_samples()` per frame
-  (a reader that falls behind gets longer reads, which take the loop).
+- per read (also judged against issue 14's target): the live device's
+  path, the generator `DeviceSource.samples()` returns -- the reader
+  drivers/evdev/live_code.py writes for the device -- over the bytes cut
+  into one read() per frame, as a device at its report rate delivers them:
+  too few events for the compiled loop to pay. A pen's reads of whole
+  frames go straight to PenSamples; a touchpad's, and anything unusual (keys,
+  SYN_DROPPED, a read ending mid-frame), through the frame assembler and
+  `frame_samples()` (a reader that falls behind gets longer reads, which
+  take the compiled loop).
 
 For transparency the same comparison is also made from ready-made
 InputEvent objects (both paths then skip the wrapping; stiction unpacks
@@ -56,7 +60,8 @@ from typing import Any
 from stiction.bench._support import results_dir, shared_data
 
 TARGET_SAMPLES_US = 1.5
-"""Issue 14: events to PenSamples (assembler and conversion), per frame."""
+"""Issue 14: events to PenSamples (assembler and conversion), per frame; judged on
+both the replay figure and the live one (one read() per frame)."""
 
 RECORDINGS = [
     "wacom-cintiq-13hd-touch-pen.evemu",
@@ -127,7 +132,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     import evdev
 
     from stiction.drivers.evdev import sizes
-    from stiction.drivers.evdev.device import INPUT_EVENT, read_samples
+    from stiction.drivers.evdev.device import INPUT_EVENT, live_reader_for
     from stiction.drivers.evdev.frames import FrameAssembler
     from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.evdev.recording import load
@@ -170,12 +175,10 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         reads.append(data[start * size :])
 
     def ours_reads() -> int:
-        # DeviceSource.samples() with one read() per frame
-        asm = FrameAssembler(desc)
+        # DeviceSource.samples() itself, its reads one frame each: the reader it runs
         n = 0
-        for chunk in reads:
-            for _ in read_samples(asm, units, chunk):
-                n += 1
+        for _ in live_reader_for(FrameAssembler(desc), units).samples(reads):
+            n += 1
         return n
 
     def naive() -> list[Any]:
@@ -222,6 +225,10 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         "contacts": sum(len(f.contacts) for f in a),
         "seconds": res,
     }
+
+
+def _verdict(us_per_frame: float) -> str:
+    return "met" if us_per_frame <= TARGET_SAMPLES_US else "NOT met"
 
 
 def _table(rows: list[dict[str, Any]], pooled: dict[str, Any]) -> str:
@@ -306,10 +313,11 @@ def main(argv: list[str]) -> int:
         f"({pooled_s['naive']['min'] / total_frames * 1e6:.2f} us per frame)\n"
         f"from ready-made InputEvent objects: {ratio_obj:.1f}x\n"
         f"events to PenSamples, a replay (ReplaySource.samples(), compiled per chunk): "
-        f"{per_frame:.2f} us per frame (issue 14's target <= {TARGET_SAMPLES_US:g} us, "
-        f"judged on this figure: {'met' if per_frame <= TARGET_SAMPLES_US else 'NOT met'})\n"
-        f"the same with one read() per frame, as from a live device (DeviceSource.samples(), "
-        f"event by event): {per_read:.2f} us per frame"
+        f"{per_frame:.2f} us per frame\n"
+        f"the same with one read() per frame, as from a live device (DeviceSource.samples()): "
+        f"{per_read:.2f} us per frame\n"
+        f"issue 14's target <= {TARGET_SAMPLES_US:g} us per frame, judged on both figures: "
+        f"replay {_verdict(per_frame)}, live {_verdict(per_read)}"
     )
     result = {
         "benchmark": "evdev",
@@ -323,6 +331,10 @@ def main(argv: list[str]) -> int:
         "samples_us_per_frame": per_frame,
         "samples_one_read_per_frame_us_per_frame": per_read,
         "target_samples_us_per_frame": TARGET_SAMPLES_US,
+        "target_met": {
+            "replay": per_frame <= TARGET_SAMPLES_US,
+            "live": per_read <= TARGET_SAMPLES_US,
+        },
     }
     if args.json:
         print(json.dumps(result, indent=2))

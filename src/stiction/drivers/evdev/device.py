@@ -22,6 +22,7 @@ from __future__ import annotations
 import contextlib
 import errno
 import fcntl
+import functools
 import logging
 import os
 import select
@@ -39,6 +40,7 @@ from stiction.drivers.evdev import columns, sizes
 from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
+from stiction.drivers.evdev.live_code import LiveReader, live_reader
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
@@ -67,8 +69,9 @@ def read_samples(
 ) -> list[PenSample]:
     """The samples of the frames one read()'s bytes (whole events) complete.
 
-    DeviceSource.samples() calls this for every read(); the benchmark times it.
-    A read of many events (a reader that fell behind) goes through the
+    The reference path for a live read, and the generated reader's
+    (`live_reader_for`) hand-over for the reads it does not take. A read of
+    many events (a reader that fell behind) goes through the
     compiled loop (columns.py) -- once it is compiled: compile=False, the
     default, never makes a live reader wait seconds for numba (a replay or
     `columns.warm()` compiles it). A short read -- the usual frame or two of
@@ -91,6 +94,22 @@ def read_samples(
 
 class DeviceGone(DeviceError):
     """The device was unplugged while being read; it may come back as a new node."""
+
+
+def live_reader_for(asm: FrameAssembler, units: SurfaceUnits) -> LiveReader:
+    """The reader of a live device's reads (live_code.py): DeviceSource.samples() runs
+    its `samples` over the node's read()s, the benchmark over a recording cut into
+    one read per frame. It takes the common read itself and hands the rest to
+    `read_samples` -- the same samples either way (tests/evdev/test_evdev_live.py).
+    When the device goes away (DeviceGone), every contact still down ends first."""
+
+    def end(data: bytes) -> list[PenSample]:
+        last = INPUT_EVENT.unpack_from(data, len(data) - INPUT_EVENT.size) if data else (0, 0)
+        frame = asm.finish(last[0], last[1])
+        return frame_samples(units, frame) if frame is not None else []
+
+    fallback = functools.partial(read_samples, asm, units)
+    return live_reader(asm, units, fallback, end, DeviceGone, _COLUMNS_MIN_BYTES)
 
 
 _IOC_WRITE, _IOC_READ = 1, 2
@@ -200,6 +219,7 @@ class DeviceSource(EvdevSourceBase):
         self._grabbed = False
         self._stats: Counter[str] = Counter()
         self._assembler: FrameAssembler | None = None
+        self._live: LiveReader | None = None  # samples() counts its own samples
         self._wake_r, self._wake_w = os.pipe()
         # closes the pipe once, whether through close() or when an unclosed source
         # is garbage-collected (python-evdev closes the device fd itself then)
@@ -229,25 +249,20 @@ class DeviceSource(EvdevSourceBase):
     # -- SampleSource --------------------------------------------------------
 
     def samples(self) -> Iterator[PenSample]:
-        """Each read()'s samples (`read_samples`); every contact ends before DeviceGone."""
-        sizes.require(self.description)
-        units = self._units
-        asm = self._new_assembler()
-        stats = self._stats
-        data = b""
-        try:
-            for data in self._reads():
-                made = read_samples(asm, units, data)
-                stats["samples"] += len(made)
-                yield from made
-        except DeviceGone:
-            last = INPUT_EVENT.unpack_from(data, len(data) - INPUT_EVENT.size) if data else (0, 0)
-            end = asm.finish(last[0], last[1])
-            if end is not None:
-                made = frame_samples(units, end)
-                stats["samples"] += len(made)
-                yield from made
-            raise
+        """Each read()'s samples (`live_reader_for`); every contact ends before DeviceGone."""
+        if self._live is not None:  # an earlier samples() call's count stays counted
+            self._stats["samples"] += self._live.count()
+        reader = live_reader_for(self._new_assembler(), self._units)
+        self._live = reader
+        # a function returning the reader's generator, not a generator itself: one
+        # layer less per sample; the size check runs at the first next(), as it did
+        return reader.samples(self._reads(require_size=True))
+
+    def stats(self) -> dict[str, int]:
+        out = super().stats()
+        if self._live is not None:
+            out["samples"] = out.get("samples", 0) + self._live.count()
+        return out
 
     def close(self) -> None:
         """Idempotent; wakes a blocked reader, which then releases the device."""
@@ -267,7 +282,7 @@ class DeviceSource(EvdevSourceBase):
         for data in self._reads():
             yield list(INPUT_EVENT.iter_unpack(data))
 
-    def _reads(self) -> Iterator[bytes]:
+    def _reads(self, require_size: bool = False) -> Iterator[bytes]:
         """Each read()'s whole `struct input_event`s, as bytes.
 
         The node is read directly (`os.read` on python-evdev's fd, unpacked
@@ -279,7 +294,11 @@ class DeviceSource(EvdevSourceBase):
         here the tail is kept for the next read and counted as
         `partial_reads`. Raises DeviceGone (a DeviceError) when the device
         goes away; the grab is released however the iteration ends.
+        `require_size`: refuse (DeviceError) at the first next() when the
+        surface size is unknown, as samples() needs it.
         """
+        if require_size:
+            sizes.require(self.description)
         with self._lock:
             if self._released or self._closed.is_set():
                 return

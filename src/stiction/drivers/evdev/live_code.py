@@ -1,0 +1,504 @@
+"""One read() of a live device straight to PenSamples: a reader written per device.
+
+A live pen delivers one frame per read(): four to seven events and one
+sample. Through the assembler (`device.read_samples`) that cost about
+4 us, most of it per call, not per event: the events become a list of
+tuples, the feed loop loads the assembler's state into locals and writes it
+back, a Frame and a Contact are built only to be taken apart by
+`frame_samples`. Here, as hid/report_code.py does for HID report layouts,
+the reader is written out as Python source for the device at hand, and is
+itself the samples generator (no call and no list per read):
+
+- the events are walked straight off `struct.iter_unpack`;
+- each axis's value lives in a closure cell (`c<code>`), read and written
+  as cheaply as a local, so nothing is loaded from or stored into the
+  assembler per read; a snapshot taken as the read begins puts them back
+  if the read has to go to the assembler after all;
+- range checks compare against literal numbers, and at SYN_REPORT the
+  PenSample is filled in directly with the units' arithmetic written in
+  (the same operations, in the same order, as units._sample_function);
+- keys change the assembler's own key set, and the assembler works out
+  what follows (`_key_state`: tool, tip, buttons) at SYN_REPORT; a contact
+  that ends repeats its last sample tip-up and out of range, as
+  frame_samples does with the assembler's ended Contact.
+
+Anything else -- a SYN_DROPPED or other SYN code, a read ending mid-frame,
+a long read (the compiled loop's, columns.py) -- is handed over: the state
+as the read began is written into the assembler (`store`), the assembler
+takes the whole read, and the reader takes the state back (`load`) once
+the assembler stands at a frame boundary; until then every read goes
+through the assembler. Counters are added only when a read went well, so
+the samples and the counters are the assembler's own
+(tests/evdev/test_evdev_live.py compares them read by read on every
+recording cut into reads of one frame and of random sizes, and on random
+streams with keys, SYN_DROPPED and garbage). The reader of a multi-touch
+device is written by live_mt_code.py.
+"""
+
+from __future__ import annotations
+
+import textwrap
+from collections.abc import Callable, Iterable, Iterator
+from typing import cast
+
+from evdev import ecodes
+
+from stiction.drivers.blank_sample import BlankSample
+from stiction.drivers.evdev import live_mt_code
+from stiction.drivers.evdev.frames import Contact, FrameAssembler
+from stiction.drivers.evdev.single_code import sorted_codes
+from stiction.drivers.evdev.units import SurfaceUnits
+from stiction.drivers.sample import PenSample, Tool
+
+#: the assembler's path for one read's bytes (device.read_samples, bound to asm and units)
+Fallback = Callable[[bytes], list[PenSample]]
+#: the samples that end every contact when the device went away, given the last read
+End = Callable[[bytes], list[PenSample]]
+Samples = Callable[[Iterable[bytes]], Iterator[PenSample]]
+
+
+class LiveReader:
+    """A live device's samples: `samples(reads)`, reads of whole events -> PenSamples.
+
+    `samples` raises what the reads raise; for `gone` (DeviceGone) it first
+    yields the samples `end` makes, which end every contact still down.
+    `count()` is how many samples it has yielded (the source's stats);
+    `store()` hands the assembler the state the reader keeps to itself.
+    """
+
+    def __init__(
+        self,
+        samples: Samples,
+        store: Callable[[], None],
+        count: Callable[[], int],
+        source: str | None,
+    ) -> None:
+        self.samples = samples
+        self.store = store
+        self.count = count
+        #: the generated source, for reading what runs (None: not specialised)
+        self.source = source
+
+
+_minus = live_mt_code.minus
+
+
+def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
+    """Statements that append the PenSample of the contact the cells describe
+    (`last_tool` its tool, `t` the frame time): units._sample_function's
+    arithmetic, operation for operation, with the device's numbers written in."""
+    x, y = ecodes.ABS_X, ecodes.ABS_Y
+    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
+    x0, x1, y0, y1 = units._bounds
+    rx, ry = units._rx, units._ry
+    xv = f"c{x}" if x in asm._abs else "0"
+    yv = f"c{y}" if y in asm._abs else "0"
+    if asm._has_touch_key:
+        tip = "key_touch"
+    elif asm._has_pressure:
+        tip = f"c{p} > {asm._pressure_min!r}"
+    else:
+        tip = "False"
+    lines = [
+        "s = blank()",
+        "s.t = sec + usec / 1_000_000",
+        # `inside`: the position is on the surface, nothing to clamp (the common case)
+        "if inside:",
+        f"    s.x = {_minus(xv, x0)} / {rx!r} / 1000",
+        f"    s.y = {_minus(yv, y0)} / {ry!r} / 1000",
+        "else:",
+    ]
+    for name, value, lo, hi in (("xs", xv, x0, x1), ("ys", yv, y0, y1)):
+        lines += [
+            f"    {name} = {value}",
+            f"    if {name} < {lo!r}:",
+            f"        {name} = {lo!r}",
+            f"    elif {name} > {hi!r}:",
+            f"        {name} = {hi!r}",
+        ]
+    lines += [
+        f"    s.x = {_minus('xs', x0)} / {rx!r} / 1000",
+        f"    s.y = {_minus('ys', y0)} / {ry!r} / 1000",
+        f"s.tip = {tip}",
+        "s.in_range = True",
+        "s.contact = 0",
+    ]
+    ps = units._pressure
+    if asm._has_pressure and ps is not None:
+        lines += [
+            f"pf = {_minus(f'c{p}', ps.offset)} * {ps.scale!r}",
+            "s.pressure = 0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf",
+        ]
+    else:
+        lines.append("s.pressure = None")
+    lines.append("s.tool = last_tool")
+    for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
+        if asm._has_tilt and axis is not None:
+            lines.append(f"s.{attr} = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}")
+        else:
+            lines.append(f"s.{attr} = None")
+    lines += [
+        "s.buttons = buttons",
+        "s.__class__ = pen",
+        "last_sample = s",
+        "if first is None:",
+        "    first = s",
+        "elif rest is None:",
+        "    rest = [s]",
+        "else:",
+        "    rest.append(s)",
+    ]
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
+def _lines(template: str, codes: list[int], indent: str) -> str:
+    return "".join(indent + template.format(c=c) + "\n" for c in codes)
+
+
+def _ended_code(indent: str) -> str:
+    """Statements that collect the ended contact's sample: its last one, tip up,
+    out of range, at this frame's time (units.sample on the ended Contact)."""
+    lines = [
+        "o = last_sample",
+        "s = blank()",
+        "s.t = sec + usec / 1_000_000",
+        "s.x = o.x",
+        "s.y = o.y",
+        "s.tip = False",
+        "s.in_range = False",
+        "s.contact = 0",
+        "s.pressure = o.pressure",
+        "s.tool = o.tool",
+        "s.tilt_x = o.tilt_x",
+        "s.tilt_y = o.tilt_y",
+        "s.buttons = o.buttons",
+        "s.__class__ = pen",
+        "if first is None:",
+        "    first = s",
+        "elif rest is None:",
+        "    rest = [s]",
+        "else:",
+        "    rest.append(s)",
+        "last_tool = None",
+    ]
+    return "".join(f"{indent}{line}\n" for line in lines)
+
+
+def _tool_code(asm: FrameAssembler) -> str:
+    """At SYN_REPORT: the keys' consequences, then the contact's tool (single_code.py's
+    rules); `continue` when the frame has no contact, else on to its sample.
+
+    With BTN_TOOL_* keys the tool is the keys' (`key_tool`), and the last frame's
+    tool equals it until a key changes (load() checks so), so only a frame with a
+    key event looks at it again. Without, the tool is the default once a
+    position came (`seen`)."""
+    refresh = (
+        "                        keys_changed = False\n"
+        "                        key_state()\n"
+        "                        key_tool = asm._key_tool\n"
+        "                        key_touch = asm._key_touch\n"
+        "                        buttons = asm._button_state\n"
+    )
+    if asm._has_tool_keys:
+        return (
+            "                    if keys_changed:\n"
+            + refresh
+            + "                        if key_tool is None:\n"
+            + "                            if last_tool is not None:\n"
+            + _ended_code(" " * 32)
+            + "                            continue\n"
+            + "                        last_tool = key_tool\n"
+            + "                    elif last_tool is None:\n"
+            + "                        continue  # no contact\n"
+        )
+    return (
+        "                    if keys_changed:\n"
+        + refresh
+        + "                    if not seen:\n"
+        + "                        if last_tool is not None:\n"
+        + _ended_code(" " * 28)
+        + "                        continue\n"
+        + "                    last_tool = default_tool\n"
+    )
+
+
+def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
+    """The reader's source for this device (read it to see what runs).
+
+    The events of a read write straight into the cells; `snap`, taken when
+    the read begins, puts them back if the read turns out to need the
+    assembler, which then takes the whole read (the frames this reader
+    completed included: counters are only added when a read ends well).
+    """
+    codes = sorted_codes(asm)
+    ranges = asm._ranges
+    x, y = ecodes.ABS_X, ecodes.ABS_Y
+    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
+    state = ", ".join(
+        [
+            *(f"c{c}" for c in codes),
+            "seen",
+            "last_tool",
+        ]
+    )
+    # with tool keys, the contact's tool is the keys' (see _tool_code)
+    consistent = "(last_tool is None) == (key_tool is None)" if asm._has_tool_keys else "True"
+    x0, x1, y0, y1 = units._bounds
+    surface = {x: (x0, x1), y: (y0, y1)}
+    branches = []
+    for i, c in enumerate(codes):
+        lo, hi = ranges[c]
+        body = f"                c{c} = value\n"
+        body += f"                if value < {lo} or value > {hi}:\n"
+        body += "                    odd = (*(odd or ()), 'value_out_of_range')\n"
+        if c in surface:
+            if surface[c] == (lo, hi):
+                body += "                    inside = False\n"
+            else:
+                s_lo, s_hi = surface[c]
+                body += f"                if value < {s_lo!r} or value > {s_hi!r}:\n"
+                body += "                    inside = False\n"
+            body += "                seen = True\n"
+        branches.append(f"            {'if' if i == 0 else 'elif'} code == {c}:\n{body}")
+    branches.append("            else:\n                odd = (*(odd or ()), 'unknown_code')\n")
+    if asm._has_touch_key:
+        tip = "key_touch"
+    elif asm._has_pressure:
+        tip = f"c{p} > {asm._pressure_min!r}"
+    else:
+        tip = "False"
+    last_contact = (
+        f"(0, None, None, last_tool, {f'c{x}' if x in asm._abs else '0'}, "
+        f"{f'c{y}' if y in asm._abs else '0'}, {f'c{p}' if asm._has_pressure else 'None'}, "
+        f"{tip}, True, {f'c{tx}' if asm._has_tilt else 'None'}, "
+        f"{f'c{ty}' if asm._has_tilt else 'None'}, buttons)"
+    )
+    xv = f"c{x}" if x in asm._abs else "0"
+    yv = f"c{y}" if y in asm._abs else "0"
+    inside = f"{x0!r} <= {xv} <= {x1!r} and {y0!r} <= {yv} <= {y1!r}"
+    return f"""abs_ = asm._abs
+stats = asm._counts
+keys = asm._keys  # the assembler's own key set, changed in place
+valid_keys = asm._valid_keys
+key_state = asm._key_state
+ok = False  # the cells hold the assembler's state; else the assembler holds it
+{_lines("c{c} = 0", codes, "")}seen = False
+last_tool = None  # the tool of the last frame's contact; None: it had none
+force = False  # the assembler's _dirty_all when loaded: kept until a frame is made
+loaded_frames = 0  # the assembler's frame count when loaded
+key_tool = None
+key_touch = False
+buttons = 0
+made_samples = 0
+inside = False  # the position is on the surface (False: the samples clamp it)
+last_sample = None  # the last frame's sample: an ended contact repeats it
+
+
+def load():
+    \"\"\"Take the state from the assembler, if it stands at a clean frame boundary.\"\"\"
+    nonlocal ok, {state}, inside, last_sample, force, loaded_frames
+    nonlocal key_tool, key_touch, buttons
+    if (
+        asm._n_pending
+        or asm._dropping
+        or asm._undo_abs
+        or asm._keys_ok is not None
+        or asm._keys_changed
+        or asm.needs_resync
+    ):
+        ok = False
+        return
+{_lines("c{c} = abs_[{c}]", codes, "    ")}    seen = asm._seen_position
+    force = asm._dirty_all  # a new assembler's first frame: the same contact rule
+    loaded_frames = asm._frames
+    inside = {inside}
+    last = asm._last
+    last_tool = last[0].tool if last else None
+    last_sample = sample(last[0], 0.0) if last else None
+    key_tool = asm._key_tool
+    key_touch = asm._key_touch
+    buttons = asm._button_state
+    ok = {consistent}
+
+
+def store():
+    \"\"\"Hand the assembler the state as of the last frame; the assembler holds it now.\"\"\"
+    nonlocal ok
+    if not ok:
+        return
+    ok = False
+{_lines("abs_[{c}] = c{c}", codes, "    ")}    asm._seen_position = seen
+    asm._seen_start = seen
+    asm._dirty_all = force and asm._frames == loaded_frames
+    asm._last = (tnew(Contact, {last_contact}),) if last_tool is not None else ()
+
+
+def count():
+    return made_samples
+
+
+def samples(reads):
+    nonlocal {state}, made_samples, inside, last_sample, key_tool, key_touch, buttons
+    data = b""
+    try:
+        for data in reads:
+            if not ok or len(data) >= long_read:
+                store()
+                out = fallback(data)
+                load()
+                made_samples += len(out)
+                yield from out
+                continue
+            snap = ({state})
+            ev_type = 0  # an empty read is a whole one
+            odd = None  # the read's anomalies, counted once the read went well
+            keys_changed = False
+            ksnap = None  # the key set, kept once a key comes
+            made = 0
+            first = None  # the read's samples, yielded once the whole read went well
+            rest = None
+            for sec, usec, ev_type, code, value in unpack(data):
+                if ev_type == 3:  # EV_ABS
+{textwrap.indent("".join(branches), " " * 8)}                    continue
+                if ev_type == 0:
+                    if code != 0:  # SYN_DROPPED, SYN_CONFIG, SYN_MT_REPORT: the assembler's
+                        break
+                    # SYN_REPORT: the frame is complete
+                    # (single_code.py's rules: the contact follows the keys and axes)
+                    made += 1
+{_tool_code(asm)}{_sample_code(units, asm, " " * 20)}                    continue
+                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
+                    if code not in valid_keys:
+                        odd = (*(odd or ()), 'unknown_code')
+                    elif value == 0 or value == 1 or value == 2:
+                        if ksnap is None:
+                            ksnap = set(keys)
+                        if value:
+                            keys.add(code)
+                        else:
+                            keys.discard(code)
+                        keys_changed = True
+                    else:
+                        odd = (*(odd or ()), 'bad_key_value')
+                    continue
+                # EV_MSC and other types: no contact state
+            else:
+                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
+                    asm._frames += made
+                    if odd is not None:
+                        for name in odd:
+                            stats[name] += 1
+                    if first is not None:
+                        made_samples += 1
+                        yield first
+                        if rest is not None:
+                            made_samples += len(rest)
+                            yield from rest
+                    continue
+            # the read needs the assembler (or ends mid-frame): it takes the whole read
+            {state} = snap
+            if ksnap is not None:
+                keys.clear()
+                keys.update(ksnap)
+                key_state()  # what follows from the keys, as it was
+                key_tool = asm._key_tool
+                key_touch = asm._key_touch
+                buttons = asm._button_state
+            store()
+            out = fallback(data)
+            load()
+            made_samples += len(out)
+            yield from out
+    except gone:
+        store()
+        out = end(data)
+        made_samples += len(out)
+        yield from out
+        raise
+"""
+
+
+_Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
+#: the compiled readers, with their source, by everything the source depends on
+_FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
+#: the same by the description and units objects themselves (a DeviceSource reuses
+#: its own; comparing a key is a deep tuple comparison): (desc, units, compiled)
+_BY_IDENTITY: dict[tuple[int, int], tuple[object, object, tuple[_Make, str]]] = {}
+
+
+def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
+    """Everything source() reads: devices that agree on it share one compiled reader."""
+    scales = (units._pressure, units._tilt_x, units._tilt_y)
+    return (
+        tuple(sorted(asm._ranges.items())),
+        asm._has_tool_keys,
+        asm._has_pressure,
+        asm._has_touch_key,
+        asm._pressure_min,
+        asm._has_tilt,
+        asm._default_tool,
+        units._bounds,
+        units._rx,
+        units._ry,
+        # (offset, scale) pairs: hashing them is cheaper than the dataclasses
+        *((v.offset, v.scale) if v is not None else None for v in scales),
+    )
+
+
+def live_reader(
+    asm: FrameAssembler,
+    units: SurfaceUnits,
+    fallback: Fallback,
+    end: End,
+    gone: type[BaseException],
+    long_read: int,
+) -> LiveReader:
+    """The reader generated for `asm`'s device (live_mt_code.py writes a multi-touch one).
+
+    `fallback(data)`: the assembler's path for a read (device.read_samples
+    bound to asm and units); it takes every read of `long_read` bytes or
+    more. `end(data)`: the samples that end the contacts once `gone` was
+    raised after the read `data`.
+    """
+    known = _BY_IDENTITY.get((id(asm.desc), id(units)))
+    if known is not None and known[0] is asm.desc and known[1] is units:
+        make, text = known[2]
+    else:
+        compiled = _compiled(asm, units)
+        if len(_BY_IDENTITY) >= 64:  # a bound for a process that opens many devices
+            _BY_IDENTITY.clear()
+        _BY_IDENTITY[(id(asm.desc), id(units))] = (asm.desc, units, compiled)
+        make, text = compiled
+    samples, store, count = make(
+        asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
+    )
+    return LiveReader(samples, store, count, text)
+
+
+def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
+    """The compiled reader for the device and its source, made at the first call."""
+    if asm.multitouch:
+        key: tuple[object, ...] = ("mt", asm.num_slots, asm._has_mt_pressure, *_key(asm, units))
+    else:
+        key = ("single", *_key(asm, units))
+    made = _FACTORIES.get(key)
+    if made is None:
+        from stiction.drivers.evdev.device import INPUT_EVENT  # device.py imports this module
+
+        text = live_mt_code.source(asm, units) if asm.multitouch else source(asm, units)
+        namespace: dict[str, object] = {
+            "tnew": tuple.__new__,
+            "Contact": Contact,
+            "blank": BlankSample,
+            "pen": PenSample,
+            "unpack": INPUT_EVENT.iter_unpack,
+            "pen_tool": Tool.PEN,
+            "finger": Tool.FINGER,
+        }
+        body = text + "\nload()\nreturn samples, store, count\n"
+        head = "def make(asm, default_tool, fallback, end, gone, long_read, sample, key_buttons):\n"
+        name = f"<evdev live reader: {asm.desc.name}>"
+        exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
+        made = (cast(_Make, namespace["make"]), text)
+        _FACTORIES[key] = made
+    return made
