@@ -513,6 +513,7 @@ class StatsWire(TypedDict):
     jitter_ms: Summary
     latency_ms: Summary
     tick_cost_ms: Summary
+    tick_cpu_ms: Summary
     published: int
     publish_dropped: int
     control_requests: int

@@ -109,6 +109,8 @@ class Daemon:
         self.jitter = Window(opts.stats_window)
         self.latency = Window(opts.stats_window)
         self.cost = Window(opts.stats_window)
+        self.cost_cpu = Window(opts.stats_window)
+        """The loop thread's CPU time in each tick: the work without the preemptions."""
         self._stop = threading.Event()
         self._reload = threading.Event()
         self.started = time.monotonic()
@@ -289,6 +291,7 @@ class Daemon:
             deadline = self.schedule.deadline
             self.clock.sleep_until(deadline, warm)
             woke = self.clock.now()
+            cpu = time.thread_time()
             lateness = self.schedule.begin(woke)
             if not self.virtual:
                 self.jitter.add(lateness)
@@ -301,6 +304,7 @@ class Daemon:
             done = self.clock.now()
             if not self.virtual:
                 self.cost.add(done - woke)
+                self.cost_cpu.add(time.thread_time() - cpu)
             self.schedule.finish(done)
             if self.on_tick is not None:
                 self.on_tick(self.last_tick)

@@ -54,6 +54,8 @@ class Observed(Protocol):
     @property
     def cost(self) -> Window: ...
     @property
+    def cost_cpu(self) -> Window: ...
+    @property
     def counters(self) -> dict[str, int]: ...
     @property
     def pipeline(self) -> Pipeline: ...
@@ -101,6 +103,7 @@ def stats(d: Observed) -> protocol.StatsWire:
         "jitter_ms": summary(d.jitter),
         "latency_ms": summary(d.latency),
         "tick_cost_ms": summary(d.cost),
+        "tick_cpu_ms": summary(d.cost_cpu),
         "published": pub.sent if pub else 0,
         "publish_dropped": pub.dropped if pub else 0,
         "control_requests": control.requests if control else 0,
