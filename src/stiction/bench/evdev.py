@@ -181,6 +181,13 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
             n += 1
         return n
 
+    def reads_setup() -> int:
+        # the same set-up with no read: what a device pays once, when opened
+        n = 0
+        for _ in live_reader_for(FrameAssembler(desc), units).samples([]):
+            n += 1
+        return n
+
     def naive() -> list[Any]:
         # python-evdev's read(): C unpacking to tuples, then an InputEvent for each
         return naive_frames(evdev.InputEvent(*t) for t in INPUT_EVENT.iter_unpack(data))
@@ -210,6 +217,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         "stiction": many(ours),
         "samples": many(ours_samples),
         "reads": many(ours_reads),
+        "reads_setup": many(reads_setup),
         "naive_objects": many(naive_objects),
         "stiction_objects": many(ours_objects),
     }
@@ -292,7 +300,15 @@ def main(argv: list[str]) -> int:
     total_frames = sum(r["frames"] for r in rows)
     pooled_s = {
         k: {m: sum(r["seconds"][k][m] for r in rows) for m in ("min", "median")}
-        for k in ("naive", "stiction", "samples", "reads", "naive_objects", "stiction_objects")
+        for k in (
+            "naive",
+            "stiction",
+            "samples",
+            "reads",
+            "reads_setup",
+            "naive_objects",
+            "stiction_objects",
+        )
     }
     pooled = {
         "recording": "all (pooled)",
@@ -306,6 +322,14 @@ def main(argv: list[str]) -> int:
     table = _table(rows, pooled)
     per_frame = pooled_s["samples"]["min"] / total_frames * 1e6
     per_read = pooled_s["reads"]["min"] / total_frames * 1e6
+    # A live device is opened once and read for minutes; the recordings are
+    # 5 to 506 frames long, so the reader's one-time set-up (assembler and
+    # generated reader, per recording) also shows per frame above: without it
+    # is the steady per-frame cost.
+    setup_us = pooled_s["reads_setup"]["min"] / len(rows) * 1e6
+    per_read_steady = (
+        (pooled_s["reads"]["min"] - pooled_s["reads_setup"]["min"]) / total_frames * 1e6
+    )
     summary = (
         f"\nframe assembler: {total_events / pooled_s['stiction']['min'] / 1e6:.2f} million "
         f"events/s, {pooled_s['stiction']['min'] / total_frames * 1e6:.2f} us per frame; "
@@ -315,9 +339,11 @@ def main(argv: list[str]) -> int:
         f"events to PenSamples, a replay (ReplaySource.samples(), compiled per chunk): "
         f"{per_frame:.2f} us per frame\n"
         f"the same with one read() per frame, as from a live device (DeviceSource.samples()): "
-        f"{per_read:.2f} us per frame\n"
-        f"issue 14's target <= {TARGET_SAMPLES_US:g} us per frame, judged on both figures: "
-        f"replay {_verdict(per_frame)}, live {_verdict(per_read)}"
+        f"{per_read:.2f} us per frame; {per_read_steady:.2f} without the reader's one-time "
+        f"set-up ({setup_us:.1f} us per device, paid when it is opened)\n"
+        f"issue 14's target <= {TARGET_SAMPLES_US:g} us per frame: "
+        f"replay {_verdict(per_frame)}; live {_verdict(per_read)} with the set-up counted "
+        f"in, {_verdict(per_read_steady)} per frame after it"
     )
     result = {
         "benchmark": "evdev",
@@ -330,10 +356,13 @@ def main(argv: list[str]) -> int:
         "ratio_from_inputevent_objects": ratio_obj,
         "samples_us_per_frame": per_frame,
         "samples_one_read_per_frame_us_per_frame": per_read,
+        "samples_one_read_per_frame_steady_us_per_frame": per_read_steady,
+        "live_reader_setup_us": setup_us,
         "target_samples_us_per_frame": TARGET_SAMPLES_US,
         "target_met": {
             "replay": per_frame <= TARGET_SAMPLES_US,
             "live": per_read <= TARGET_SAMPLES_US,
+            "live_steady": per_read_steady <= TARGET_SAMPLES_US,
         },
     }
     if args.json:
