@@ -46,6 +46,7 @@ from evdev import ecodes
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import Contact, FrameAssembler
+from stiction.drivers.evdev.live_mt_code import KEY_EVENT_AND_READ_END
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample, Tool
@@ -367,34 +368,7 @@ def samples(reads):
                     # (single_code.py's rules: the contact follows the keys and axes)
                     made += 1
 {_tool_code(asm)}{_sample_code(units, asm, " " * 20)}                    continue
-                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
-                    if code not in valid_keys:
-                        odd = (*(odd or ()), 'unknown_code')
-                    elif value == 0 or value == 1 or value == 2:
-                        if ksnap is None:
-                            ksnap = set(keys)
-                        if value:
-                            keys.add(code)
-                        else:
-                            keys.discard(code)
-                        keys_changed = True
-                    else:
-                        odd = (*(odd or ()), 'bad_key_value')
-                    continue
-                # EV_MSC and other types: no contact state
-            else:
-                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
-                    asm._frames += made
-                    if odd is not None:
-                        for name in odd:
-                            stats[name] += 1
-                    if first is not None:
-                        made_samples += 1
-                        yield first
-                        if rest is not None:
-                            made_samples += len(rest)
-                            yield from rest
-                    continue
+{KEY_EVENT_AND_READ_END}
             # the read needs the assembler (or ends mid-frame): it takes the whole read
             {state} = snap
             if ksnap is not None:

@@ -54,6 +54,40 @@ _ORDER = (
 )
 
 
+KEY_EVENT_AND_READ_END = """\
+                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
+                    if code not in valid_keys:
+                        odd = (*(odd or ()), 'unknown_code')
+                    elif value == 0 or value == 1 or value == 2:
+                        if ksnap is None:
+                            ksnap = set(keys)
+                        if value:
+                            keys.add(code)
+                        else:
+                            keys.discard(code)
+                        keys_changed = True
+                    else:
+                        odd = (*(odd or ()), 'bad_key_value')
+                    continue
+                # EV_MSC and other types: no contact state
+            else:
+                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
+                    asm._frames += made
+                    if odd is not None:
+                        for name in odd:
+                            stats[name] += 1
+                    if first is not None:
+                        made_samples += 1
+                        yield first
+                        if rest is not None:
+                            made_samples += len(rest)
+                            yield from rest
+                    continue"""
+"""The generated readers' shared tail of the event loop (pens and multi-touch
+alike): a key event kept as FrameAssembler.feed_many_general keeps it, and a
+read that ends on its SYN_REPORT counted and its samples handed out."""
+
+
 def minus(expr: str, offset: float) -> str:
     """`(expr - offset)`, or `expr` for a zero offset: the same number either way
     for the int values of an axis (an int minus 0.0 is that int as a float, as
@@ -347,34 +381,7 @@ def samples(reads):
                         lasts = [None] * len(made_now)
                         inside = {inside}
 {_sample_code(asm, units)}                    continue
-                if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
-                    if code not in valid_keys:
-                        odd = (*(odd or ()), 'unknown_code')
-                    elif value == 0 or value == 1 or value == 2:
-                        if ksnap is None:
-                            ksnap = set(keys)
-                        if value:
-                            keys.add(code)
-                        else:
-                            keys.discard(code)
-                        keys_changed = True
-                    else:
-                        odd = (*(odd or ()), 'bad_key_value')
-                    continue
-                # EV_MSC and other types: no contact state
-            else:
-                if ev_type == 0:  # the read ends with a SYN_REPORT: no frame left open
-                    asm._frames += made
-                    if odd is not None:
-                        for name in odd:
-                            stats[name] += 1
-                    if first is not None:
-                        made_samples += 1
-                        yield first
-                        if rest is not None:
-                            made_samples += len(rest)
-                            yield from rest
-                    continue
+{KEY_EVENT_AND_READ_END}
             # the read needs the assembler (or ends mid-frame): it takes the whole read,
             # from the state as it began
             vals[:], cur, active, buttons, rebuild, keys_changed, inside = snap
