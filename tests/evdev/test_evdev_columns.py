@@ -31,8 +31,8 @@ from test_evdev_fast_paths import DESCS, _codes, _values, _with_drops
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
 from stiction.drivers.evdev import columns, playback, sizes
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.drivers.evdev.device import INPUT_EVENT, read_samples
-from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.device import read_samples
+from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.recording import Recording, load
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits

@@ -32,8 +32,8 @@ from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
 from stiction.drivers.evdev import live_code, live_mt_code, sizes
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.drivers.evdev.device import INPUT_EVENT, DeviceGone, live_reader_for
-from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.device import DeviceGone, live_reader_for
+from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.recording import load
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits

@@ -132,8 +132,8 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     import evdev
 
     from stiction.drivers.evdev import sizes
-    from stiction.drivers.evdev.device import INPUT_EVENT, live_reader_for
-    from stiction.drivers.evdev.frames import FrameAssembler
+    from stiction.drivers.evdev.device import live_reader_for
+    from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
     from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.evdev.recording import load
     from stiction.drivers.evdev.units import SurfaceUnits

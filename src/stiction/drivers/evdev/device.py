@@ -39,7 +39,7 @@ from evdev import ecodes
 from stiction.drivers.evdev import columns, sizes
 from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
-from stiction.drivers.evdev.frames import DeviceState, Frame, FrameAssembler
+from stiction.drivers.evdev.frames import INPUT_EVENT, DeviceState, Frame, FrameAssembler
 from stiction.drivers.evdev.live_code import LiveReader, live_reader
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
@@ -57,9 +57,6 @@ def _close_fds(*fds: int) -> None:
             os.close(fd)
 
 
-#: struct input_event: struct timeval (two native longs, as the kernel's
-#: __kernel_ulong_t on every Linux ABI but x32), u16 type, u16 code, s32 value
-INPUT_EVENT = struct.Struct("@llHHi")
 _READ_SIZE = INPUT_EVENT.size * 256
 _COLUMNS_MIN_BYTES = INPUT_EVENT.size * columns.MIN_EVENTS
 

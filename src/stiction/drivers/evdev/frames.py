@@ -26,6 +26,7 @@ of types and codes the device does not have.
 from __future__ import annotations
 
 import functools
+import struct
 from collections import Counter
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
@@ -41,6 +42,12 @@ from stiction.drivers.evdev.description import (
     DeviceDescription,
 )
 from stiction.drivers.sample import Tool
+
+#: struct input_event, as a read() of the node returns it: struct timeval (two
+#: native longs, as the kernel's __kernel_ulong_t on every Linux ABI but x32),
+#: u16 type, u16 code, s32 value. Here, below both its readers (device.py and
+#: the generated live readers of live_code.py), so neither imports the other.
+INPUT_EVENT = struct.Struct("@llHHi")
 
 SYN_REPORT = ecodes.SYN_REPORT
 SYN_DROPPED = ecodes.SYN_DROPPED

@@ -45,7 +45,7 @@ from evdev import ecodes
 
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
-from stiction.drivers.evdev.frames import Contact, FrameAssembler
+from stiction.drivers.evdev.frames import INPUT_EVENT, Contact, FrameAssembler
 from stiction.drivers.evdev.live_mt_code import KEY_EVENT_AND_READ_END
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
@@ -457,8 +457,6 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
         key = ("single", *_key(asm, units))
     made = _FACTORIES.get(key)
     if made is None:
-        from stiction.drivers.evdev.device import INPUT_EVENT  # device.py imports this module
-
         text = live_mt_code.source(asm, units) if asm.multitouch else source(asm, units)
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
