@@ -46,7 +46,7 @@ from evdev import ecodes
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import INPUT_EVENT, Contact, FrameAssembler
-from stiction.drivers.evdev.live_mt_code import KEY_EVENT_AND_READ_END
+from stiction.drivers.evdev.live_mt_code import HAND_OVER, KEY_EVENT_AND_READ_END
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample, Tool
@@ -378,18 +378,7 @@ def samples(reads):
                 key_tool = asm._key_tool
                 key_touch = asm._key_touch
                 buttons = asm._button_state
-            store()
-            out = fallback(data)
-            load()
-            made_samples += len(out)
-            yield from out
-    except gone:
-        store()
-        out = end(data)
-        made_samples += len(out)
-        yield from out
-        raise
-"""
+{HAND_OVER}"""
 
 
 _Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]

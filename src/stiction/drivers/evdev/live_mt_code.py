@@ -54,6 +54,24 @@ _ORDER = (
 )
 
 
+HAND_OVER = """\
+            store()
+            out = fallback(data)
+            load()
+            made_samples += len(out)
+            yield from out
+    except gone:
+        store()
+        out = end(data)
+        made_samples += len(out)
+        yield from out
+        raise
+"""
+"""Both generated readers' last lines: a read the reader does not take goes to
+the assembler with the state stored into it and loaded back after, and a
+device that goes away ends its contacts before DeviceGone is raised on."""
+
+
 KEY_EVENT_AND_READ_END = """\
                 if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
                     if code not in valid_keys:
@@ -390,15 +408,4 @@ def samples(reads):
             if ksnap is not None:
                 keys.clear()
                 keys.update(ksnap)
-            store()
-            out = fallback(data)
-            load()
-            made_samples += len(out)
-            yield from out
-    except gone:
-        store()
-        out = end(data)
-        made_samples += len(out)
-        yield from out
-        raise
-"""
+{HAND_OVER}"""
