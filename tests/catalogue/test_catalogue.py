@@ -458,17 +458,24 @@ def test_every_entry_becomes_a_working_hid_entry() -> None:
     from stiction.drivers.catalogue.resolve import Resolved
     from stiction.drivers.hid.devices import from_resolved
 
-    families = 0
+    families = variants = 0
     for e in load.generated() + load.builtin():
-        entry = from_resolved(Resolved(e, e.effects, dict.fromkeys(e.effects, e), (e,)))
-        assert entry.name == e.name and entry.source == e.source
-        if entry.family is not None:
-            families += 1
-            assert entry.descriptor is not None and entry.size_m is not None
-            stream = ReportStream(parse_descriptor(entry.descriptor), e.name, None, entry)
-            assert stream.kind == "pen" and stream.size_from == "catalogue"
-            assert stream.surface_size == pytest.approx(entry.size_m, abs=1e-5)
-    assert families >= 60
+        r = Resolved(e, e.effects, dict.fromkeys(e.effects, e), (e,))
+        entries = [from_resolved(r)]
+        # and each report length's family, on an interface declaring that length
+        for length in e.effects.get("by_report_length", {}):  # type: ignore[attr-defined]
+            entries.append(from_resolved(r, _vendor((9, int(length)))))
+            assert entries[-1].family is not None, (e.name, length)
+            variants += 1
+        for entry in entries:
+            assert entry.name == e.name and entry.source == e.source
+            if entry.family is not None:
+                families += 1
+                assert entry.descriptor is not None and entry.size_m is not None
+                stream = ReportStream(parse_descriptor(entry.descriptor), e.name, None, entry)
+                assert stream.kind == "pen" and stream.size_from == "catalogue"
+                assert stream.surface_size == pytest.approx(entry.size_m, abs=1e-5)
+    assert families >= 60 and variants >= 20
 
 
 def test_a_pen_family_stays_off_another_interface_of_the_same_id(hid_data: Path) -> None:
@@ -540,3 +547,122 @@ def test_the_hand_written_tables_header_names_every_family() -> None:
     header = header[: header.index("[[device]]")]
     missing = [f for f in FAMILIES if f'"{f}"' not in header]
     assert not missing, f"devices.toml's header does not list {missing}"
+
+
+# --- models told apart by their report length -------------------------------------
+
+
+def _vendor(*reports: tuple[int, int]) -> bytes:
+    """A vendor interface's descriptor: per (report ID, length in bytes with the ID), a
+    collection of that many vendor bytes (Usage Page 0xff0a), no pen usage."""
+    return b"".join(
+        bytes.fromhex(f"060aff0901a10185{rid:02x}750895{n - 1:02x}150026ff0009018102c0")
+        for rid, n in reports
+    )
+
+
+def test_each_report_length_gets_the_family_its_models_agree_on(
+    facts: dict[str, object],
+) -> None:
+    """VEIKK S640 (13-byte reports) and S640 V2 (9-byte) share 2feb:0001: the id-only
+    entry names no family, but a family per length, each with facts that every
+    OpenTabletDriver identifier of that length agrees on."""
+    (s640,) = [e for e in load.generated() if e.match.id == "2feb:0001" and not e.match.strings]
+    assert "family" not in s640.effects
+    variants = s640.effects["by_report_length"]
+    assert {k: v["family"] for k, v in variants.items()} == {"9": "veikk-v1", "13": "veikk-vk"}  # type: ignore[attr-defined]
+    per_length: dict[tuple[int, int, int], set[tuple[object, ...]]] = defaultdict(set)
+    for t in facts["tablets"]:  # type: ignore[attr-defined]
+        for i in t["identifiers"]:
+            key = (*_ident(i["vid"], i["pid"]), i["input_report_length"])
+            per_length[key].add((t["width_mm"], t["height_mm"], t["max_x"], t["max_y"]))
+    checked = 0
+    for e in load.generated():
+        for length, sub in e.effects.get("by_report_length", {}).items():  # type: ignore[attr-defined]
+            assert sub["report_length"] == int(length)
+            if e.match.strings:
+                continue  # a string match's records are a subset of the id's
+            full = {**e.effects, **sub}  # a variant leaves out what the entry says already
+            sizes_seen = per_length[(e.match.vid, e.match.pid, int(length))]
+            assert sizes_seen == {(*full["size_mm"], full["max_x"], full["max_y"])}, e.name
+            checked += 1
+    assert checked >= 15
+
+
+@pytest.mark.parametrize(
+    ("reports", "family"),
+    [
+        (((9, 13),), "veikk-vk"),
+        (((9, 9),), "veikk-v1"),
+        (((9, 9), (10, 13)), None),  # both lengths on one interface: neither model
+        (((9, 12),), None),  # no length fits
+    ],
+)
+def test_the_interfaces_descriptor_picks_the_length(
+    reports: tuple[tuple[int, int], ...], family: str | None
+) -> None:
+    entry = hid_lookup(0x2FEB, 0x0001, descriptor=_vendor(*reports))
+    assert entry is not None and entry.family == family
+    if family is not None:
+        assert entry.geometry is not None and entry.size_m is not None
+        assert entry.init_reports  # the vendor mode is asked for only with a family
+    else:
+        assert entry.geometry is None and entry.init_reports == ()
+    # without a descriptor (a udev rule, an evdev node) no length can be told
+    bare = hid_lookup(0x2FEB, 0x0001)
+    assert bare is not None and bare.family is None
+
+
+def test_a_length_the_interface_reads_as_a_pen_is_not_the_vendor_report(
+    hid_data: Path,
+) -> None:
+    """The Parblo Ninos M (0483:a005) has a 10-byte XP-Pen vendor report; on an
+    interface whose 10-byte report is a pen it already reads (the real XP-Pen
+    Artist 24's firmware descriptor, report 7), the family stays off."""
+    own = load_recording(hid_data / "xp-pen-artist-24.hid").descriptor
+    desc = parse_descriptor(own)
+    assert 10 in {r.byte_size for r in desc.input_reports.values()}
+    entry = hid_lookup(0x0483, 0xA005, descriptor=own)
+    assert entry is not None and entry.family is None
+    vendor = hid_lookup(0x0483, 0xA005, descriptor=_vendor((2, 10)))
+    assert vendor is not None and vendor.family == "xp-pen"
+
+
+@pytest.mark.parametrize(
+    ("variants", "message"),
+    [
+        ("by_report_length = 3", "must be a table"),
+        ("by_report_length = {}", "must be a table"),
+        ('by_report_length = { x = { parser = "p" } }', "not a report length"),
+        ('by_report_length = { 0 = { parser = "p" } }', "1..65535"),
+        ("by_report_length = { 9 = 1 }", "table of effects"),
+        ('by_report_length = { 9 = { models = ["a"] } }', "cannot be set per report length"),
+        ("by_report_length = { 9 = { by_report_length = { 9 = {} } } }", "cannot be set"),
+        ("by_report_length = { 9 = { report_length = 10 } }", "must be 9"),
+        ('by_report_length = { 9 = { family = "veikk-v1" } }', r"by_report_length\.9.*needs"),
+        ("by_report_length = { 9 = { size = 1 } }", "unknown key"),
+    ],
+)
+def test_bad_report_length_variants_are_refused_with_the_reason(
+    variants: str, message: str
+) -> None:
+    text = f'[[device]]\nid = "1:1"\nsource = "x"\n{variants}\n'
+    with pytest.raises(DeviceError, match=message):
+        load.parse_toml(text, "overlay.toml", "user")
+
+
+def test_a_variant_completes_the_entrys_own_facts() -> None:
+    """A hand-written entry may give the size once and only the family per length."""
+    text = (
+        '[[device]]\nid = "1:1"\nsource = "x"\nmax_x = 100\nmax_y = 100\n'
+        "max_pressure = 255\nsize_mm = [10, 10]\n"
+        '[device.by_report_length.9]\nfamily = "veikk-v1"\n'
+    )
+    (e,) = load.parse_toml(text, "overlay.toml", "user")
+    from stiction.drivers.catalogue.resolve import Resolved
+    from stiction.drivers.hid.devices import from_resolved
+
+    r = Resolved(e, e.effects, dict.fromkeys(e.effects, e), (e,))
+    entry = from_resolved(r, _vendor((9, 9)))
+    assert entry.family == "veikk-v1" and entry.size_m == pytest.approx((0.01, 0.01))
+    assert from_resolved(r, _vendor((9, 13))).family is None

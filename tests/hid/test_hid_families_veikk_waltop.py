@@ -11,9 +11,10 @@ Which data each is tested on:
   veikk-s640.hid (an older VEIKK, 8-byte reports, descriptor only) is where
   the family must NOT go: its interface has no 13-byte report.
 - ``veikk-v1``: no recording, no public dump; reports BUILT from the layout,
-  read end to end through a user's device-table entry (no catalogue entry
-  names it: every id with a VeikkV1 or VeikkA15 model is shared with a
-  13-byte model, so the generated entry has no parser).
+  read end to end through a user's device-table entry and through the
+  generated catalogue alone (every id with a VeikkV1 or VeikkA15 model is
+  shared with a 13-byte model, so the entry gives each report length its
+  own family: ``by_report_length``).
 - ``waltop``: no recording and no public dump; reports BUILT from the layout
   (families_waltop.py's docstring).
 - ``uclogic-v2`` for HuionTilt: REAL reports copied from the Huion HS610's
@@ -226,6 +227,23 @@ def test_veikk_v1_end_to_end_through_a_users_entry(
     assert (hover["tip"], press["tip"]) == (False, True)
     assert press["pressure"] == pytest.approx(4096 / 8191, abs=1e-4)
     assert gone["in_range"] is False
+
+
+def test_an_s640_v2_is_read_through_the_catalogue_alone(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The same BUILT S640 V2 recording (2feb:0001, 9-byte vendor report) with no
+    user table: the generated entry's 9-byte variant gives ``veikk-v1`` and the
+    S640 V2's 30480 x 20320 over 152.4 x 101.6 mm; a 13-byte interface of the
+    same id would get ``veikk-vk`` (tests/catalogue/test_catalogue.py)."""
+    entry = lookup(0x2FEB, 0x0001, descriptor=_vendor_descriptor(9, 9))
+    assert entry is not None and entry.family == "veikk-v1"
+    path = tmp_path / "s640-v2.hid"
+    reports = [_v1(15240, 10160, 0), _v1(15240, 10160, 4096, 0x22), _v1(15240, 10160, 0, 0xC0)]
+    _write_recording(path, 0x2FEB, 0x0001, _vendor_descriptor(9, 9), reports)
+    (hover,), (press,), (gone,) = (line["contacts"] for line in _decode(capsys, path))
+    assert (hover["x"], hover["y"]) == pytest.approx((0.0762, 0.0508), abs=1e-5)
+    assert (hover["tip"], press["tip"], gone["in_range"]) == (False, True, False)
 
 
 # A vendor interface: Usage Page 0xff0a, Usage 1, Collection (Application),

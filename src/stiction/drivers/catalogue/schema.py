@@ -36,9 +36,13 @@ EFFECT_KEYS = frozenset(
         "usage_aliases",
         "descriptor",
         "report_fixup",
+        "by_report_length",
         *SIZE_KEYS,
     }
 )
+_NOT_IN_VARIANT = frozenset({"by_report_length", "models"})
+"""Keys a by_report_length variant may not set: it is about one interface of the
+entry's device, not another entry."""
 LAYERS = ("generated", "builtin", "user")
 """Where an entry was read, lowest first: OpenTabletDriver's facts, the
 hand-written table shipped with stiction, the user's overlay."""
@@ -223,6 +227,41 @@ def check_effects(eff: Mapping[str, object], where: str) -> None:
             f"{where}: unknown report_fixup {fixup!r}; known: {', '.join(REPORT_FIXUPS)}"
         )
     _check_family(eff, where)
+    if "by_report_length" in eff:
+        _check_variants(eff, where)
+
+
+def _check_variants(eff: Mapping[str, object], where: str) -> None:
+    """`by_report_length = { "13" = {...}, "9" = {...} }`: effects for the interface whose
+    descriptor declares an input report of that many bytes (see hid/devices.py).
+
+    Models that share an id but send reports of different lengths (VEIKK's
+    S640 and S640 V2) can then each get their family, since the interface's
+    own descriptor tells them apart, as OpenTabletDriver tells them apart by
+    the length. Each variant is checked as the entry it completes.
+    """
+    variants = eff["by_report_length"]
+    if not isinstance(variants, dict) or not variants:
+        raise DeviceError(
+            f"{where}: 'by_report_length' must be a table of report length = {{ effects }}"
+        )
+    base = {k: v for k, v in eff.items() if k != "by_report_length"}
+    for key, sub in variants.items():
+        here = f"{where} by_report_length.{key}"
+        try:
+            length = int(key)
+        except ValueError:
+            raise DeviceError(f"{here}: {key!r} is not a report length in bytes") from None
+        if not 0 < length < 1 << 16:
+            raise DeviceError(f"{here}: a report length is 1..65535 bytes")
+        if not isinstance(sub, dict):
+            raise DeviceError(f"{here}: must be a table of effects")
+        bad = set(sub) & _NOT_IN_VARIANT
+        if bad:
+            raise DeviceError(f"{here}: {', '.join(sorted(bad))} cannot be set per report length")
+        if sub.get("report_length", length) != length:
+            raise DeviceError(f"{here}: its 'report_length' must be {length}")
+        check_effects({**base, **sub}, here)
 
 
 def _check_family(eff: Mapping[str, object], where: str) -> None:

@@ -8,6 +8,7 @@ catalogue, with today's format (a top-level ``id``) still accepted.
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from functools import cache
@@ -29,9 +30,12 @@ __all__ = [
     "from_resolved",
     "lookup",
     "parse_table",
+    "pick_variant",
     "user_table",
     "user_table_path",
 ]
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True, slots=True)
@@ -86,25 +90,61 @@ def family_fits(eff: Mapping[str, object], own: bytes) -> bool:
     the descriptor describes no pen at all. An unparsable descriptor keeps
     the family (it may be why the entry exists).
     """
+    if "family" not in eff:
+        return True
+    found = _unread_lengths(own)
+    if found is None:
+        return True
+    lengths, any_pen = found
+    length = eff.get("report_length")
+    if not isinstance(length, int):  # models of this id disagree on it
+        return not any_pen
+    return length in lengths
+
+
+def _unread_lengths(own: bytes) -> tuple[frozenset[int], bool] | None:
+    """The byte sizes (report ID included) of the input reports descriptor `own` declares
+    but does not describe as a pen, and whether it describes any pen; None if it
+    does not parse."""
     from stiction.drivers.hid.descriptor import parse_descriptor
     from stiction.drivers.hid.pen import build_mappings
     from stiction.errors import DescriptorError, DeviceError
 
-    if "family" not in eff:
-        return True
     try:
         desc = parse_descriptor(own)
     except DescriptorError:
-        return True
+        return None
     try:
         readable = build_mappings(desc, "family check", (1.0, 1.0))
     except DeviceError:
         readable = {}
-    length = eff.get("report_length")
-    if not isinstance(length, int):  # models of this id disagree on it
-        return not readable
-    fitting = [rid for rid, rep in desc.input_reports.items() if rep.byte_size == length]
-    return any(rid not in readable for rid in fitting)
+    lengths = frozenset(
+        rep.byte_size for rid, rep in desc.input_reports.items() if rid not in readable
+    )
+    return lengths, bool(readable)
+
+
+def pick_variant(variants: object, own: bytes) -> tuple[str, Mapping[str, object]] | None:
+    """The `by_report_length` variant for this interface: the one whose length is that
+    of an input report its descriptor `own` declares and does not read as a pen.
+
+    None where no variant fits, where the descriptor does not parse (nothing
+    tells the models apart then), and where more than one fits: two models'
+    reports on one interface is not something either model sends, so
+    neither is chosen (as with two catalogue entries matching equally well).
+    """
+    if not isinstance(variants, dict):
+        return None
+    found = _unread_lengths(own)
+    if found is None:
+        return None
+    fits = [(k, v) for k, v in variants.items() if int(k) in found[0]]
+    if len(fits) != 1:
+        if fits:
+            log.info("report lengths %s all fit this interface: none is used",
+                     ", ".join(k for k, _ in fits))  # fmt: skip
+        return None
+    return fits[0]
 
 
 def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
@@ -114,15 +154,23 @@ def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
     report length it does not declare is left out (see `family_fits`).
     """
     eff = dict(r.effects)
+    origin = dict(r.origin)
+    variants = eff.pop("by_report_length", None)
+    if own is not None and variants is not None:
+        chosen = pick_variant(variants, own)
+        if chosen is not None:
+            eff.update(chosen[1])
+            eff["report_length"] = int(chosen[0])
+            origin.update(dict.fromkeys(chosen[1], r.origin["by_report_length"]))
     if own is not None and not family_fits(eff, own):
         eff.pop("family", None)
-    if "report_fixup" in eff and "family" in eff and r.origin["family"].layer == "generated":
+    if "report_fixup" in eff and "family" in eff and origin["family"].layer == "generated":
         # A hand-written fix-up reads the device's own descriptor; a generated
         # family would swap that descriptor for its own. The hand-written entry
         # wins, as everywhere (the Yiynova MVP20U+RH, 5543:004d, has both).
         eff.pop("family")
     size_m = _pair_m(eff["size_mm"]) if "size_mm" in eff else None
-    size_layer = r.origin["size_mm"].layer if "size_mm" in eff else None
+    size_layer = origin["size_mm"].layer if "size_mm" in eff else None
     family = eff.get("family")
     geometry = None
     descriptor = bytes.fromhex(str(eff["descriptor"])) if "descriptor" in eff else None
@@ -133,10 +181,10 @@ def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
             int(eff["max_pressure"]),  # type: ignore[call-overload]
             size_m[0] * 1000.0,
             size_m[1] * 1000.0,
-            r.origin["family"].source,
+            origin["family"].source,
         )
         descriptor = family_descriptor(geometry)
-        size_layer = r.origin["family"].layer
+        size_layer = origin["family"].layer
     pen_reports = eff.get("pen_reports", [])
     aliases = eff.get("usage_aliases", {})
     assert isinstance(pen_reports, list) and isinstance(aliases, dict)
@@ -167,7 +215,7 @@ def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
         size_layer,
         tuple(init_reports),
         parser if isinstance(parser, str) else None,
-        r.origin["init"].layer if "init" in eff else None,
+        origin["init"].layer if "init" in eff else None,
     )
 
 
