@@ -156,7 +156,10 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
         elif c in _KEPT:
             offset = f" + {_KEPT[c]}" if _KEPT[c] else ""
             body = f"                        vals[base{offset}] = value\n" + check
-            if c in surface:
+            if c in surface and surface[c] == (lo, hi):
+                # the surface is the axis's range: one test serves both
+                body += "                            inside = False\n"
+            elif c in surface:
                 s_lo, s_hi = surface[c]
                 body += f"                        if value < {s_lo!r} or value > {s_hi!r}:\n"
                 body += "                            inside = False\n"
