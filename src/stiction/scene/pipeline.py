@@ -15,6 +15,7 @@ test can substitute a recorder.
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import itertools
 import math
@@ -383,6 +384,22 @@ class _Slots:
             self.bw = np.zeros((2, size), dtype=np.bool_)
         return self.iw, self.fw, self.bw
 
+    def copy(self) -> _Slots:
+        """A copy whose stepping leaves this one as it is (Pipeline.fork).
+
+        The contact rows and the order tables are copied; the compiled
+        tick's scratch space and the affine array are shared: the tick
+        writes the scratch and reads it back within one call, and the
+        affine array is replaced, never written."""
+        twin = copy.copy(self)
+        twin.S = self.S.copy()
+        twin.L = self.L.copy()
+        twin.free = self.free.copy()
+        twin.order_ids = self.order_ids.copy()
+        twin.order_slots = self.order_slots.copy()
+        twin.pos_of = self.pos_of.copy()
+        return twin
+
     def grow(self) -> None:
         old = self.L.shape[0]
         self.S = np.concatenate([self.S, self.stepper.new_rows(old)])
@@ -690,6 +707,26 @@ class Pipeline:
                 mapping.end(cid)
             slots.reorder(known)
         return result
+
+    def fork(self, dev: DeviceRun) -> DeviceRun | None:
+        """A copy of `dev`'s contact state to step instead of it, or None.
+
+        Stepping the copy computes `dev`'s next tick without committing it
+        (the daemon's prepared tick, stiction.daemon.prepare); `adopt` then
+        makes it `dev`'s state, or it is dropped. Only a device whose
+        mapping has an affine form is forked: that mapping is a pure
+        function (its begin and end do nothing), while a relative mapping
+        keeps a cursor of its own that stepping a copy would move."""
+        if getattr(dev.mapping, "affine", None) is None:
+            return None
+        slots: _Slots | None = dev.slots
+        return DeviceRun(dev.mapping, dict(dev.tracks), None if slots is None else slots.copy())
+
+    @staticmethod
+    def adopt(dev: DeviceRun, fork: DeviceRun) -> None:
+        """Make a stepped fork's state `dev`'s own (the fork is not used again)."""
+        dev.tracks = fork.tracks
+        dev.slots = fork.slots
 
     def warm_up(self, wait: float | None = None) -> bool:
         """Compile (or load from numba's cache) the batch tick before the first tick.
