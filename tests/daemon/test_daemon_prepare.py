@@ -25,7 +25,7 @@ import msgpack
 from daemon_support import stroke
 
 from stiction import protocol
-from stiction.daemon.clock import Warm
+from stiction.daemon.clock import Warm, Watch
 from stiction.daemon.devices import DeviceConfig, DeviceSlot, Spec
 from stiction.daemon.mapping import MappingConfig
 from stiction.daemon.options import Options
@@ -121,13 +121,22 @@ class ScriptedClock:
         while self.events and self.events[0].at <= until:
             self.events.pop(0).act(self.d)
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         self._play(deadline - LEAD)
         self._now = max(self._now, deadline - LEAD)
         if warm is not None:
             warm(deadline)
             self.prepared += 1
-        self._play(deadline)
+        # Between the preparation and the deadline, each event at its time,
+        # and the spin's watch after it, as the polling would.
+        while self.events and self.events[0].at <= deadline:
+            event = self.events.pop(0)
+            self._now = max(self._now, event.at)
+            event.act(self.d)
+            if watch is not None:
+                watch(deadline, self._now)
         self._now = max(self._now, deadline)
 
 
@@ -231,10 +240,14 @@ def test_prepared_ticks_publish_the_bytes_of_ordinary_ones(tmp_path: Path) -> No
     assert any(f["t"] == START + 0.70 and f["contacts"] for f in pen)
     assert any(f["t"] > START + 0.9 and f["contacts"] for f in pen)
     assert d.slots[0].reopened == 1
-    # Both outcomes happened, and the relative-mapped pad was never prepared.
+    # Every outcome happened: sent as prepared, prepared again in the spin for
+    # a sample that arrived after the preparation, dropped for one that
+    # arrived too close to the deadline (and for the parameter change);
+    # the relative-mapped pad was never prepared.
     stats = d.stats()
     hits, misses, none = stats["prepared_hits"], stats["prepared_misses"], stats["unprepared"]
-    assert hits > 100 and misses > 10
+    assert d.preparer is not None
+    assert hits > 100 and misses >= 2 and d.preparer.redone > 5
     assert none >= TICKS  # the pad's ticks, and the pen's while unplugged
     assert hits + misses + none == sum(1 for t, _ in prepared.messages if t != protocol.TOPIC_SCENE)
     assert prepared.messages == plain.messages
@@ -254,4 +267,29 @@ def test_a_failing_preparation_turns_itself_off_and_the_loop_goes_on(
     got, d, _ = _run(tmp_path, prepare=True)
     assert d.preparer is not None and not d.preparer.enabled
     assert d.preparer.hits == 0
+    assert got.messages == plain.messages
+
+
+def test_a_redo_that_fails_in_the_spin_leaves_the_tick_to_run_afresh(
+    tmp_path: Path, monkeypatch: Any
+) -> None:
+    """A redo that took the new samples in and then could not finish (its step
+    failed, say) must not leave the earlier preparation to be sent."""
+    from stiction.daemon import prepare
+
+    plain, _, _ = _run(tmp_path, prepare=False)
+    real = prepare.Preparer._prepare_slot
+    failed: list[int] = []
+
+    def failing_redo(self: Any, slot: DeviceSlot, t: float, warm: bool) -> bool:
+        if warm:
+            return real(self, slot, t, warm)
+        prepare.drain_live(slot)  # as far as a redo gets before its step
+        failed.append(1)
+        return False
+
+    monkeypatch.setattr(prepare.Preparer, "_prepare_slot", failing_redo)
+    got, d, _ = _run(tmp_path, prepare=True)
+    assert d.preparer is not None and d.preparer.redone == 0
+    assert len(failed) > 5 and d.preparer.misses >= len(failed)
     assert got.messages == plain.messages

@@ -15,7 +15,7 @@ import pytest
 import zmq
 
 from stiction import protocol
-from stiction.daemon.clock import RealClock, VirtualClock, Warm
+from stiction.daemon.clock import RealClock, VirtualClock, Warm, Watch
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.options import Options
 from stiction.daemon.publisher import Publisher, Recorder
@@ -31,7 +31,9 @@ class WarmingClock(VirtualClock):
         super().__init__(start)
         self.warmed = 0
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         assert warm is not None, "the loop gave its clock no warm pass"
         warm(deadline)
         self.warmed += 1

@@ -33,6 +33,10 @@ PR_SET_TIMERSLACK = 29
 Warm = Callable[[float], None]
 """What the loop runs at the start of its spin, given the coming deadline."""
 
+Watch = Callable[[float, float], None]
+"""What the loop runs on each turn of the spin's polling, given the coming
+deadline and the time now (the prepared tick redone when input arrives)."""
+
 WARM_MARGIN = 0.2
 """The warm pass runs only if its expected duration plus this share of the
 spin is left when the sleep ends: a later wake-up goes straight to polling.
@@ -50,7 +54,9 @@ WARM_EMA = 0.05
 
 class Clock(Protocol):
     def now(self) -> float: ...
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None: ...
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None: ...
 
 
 class RealClock:
@@ -72,6 +78,12 @@ class RealClock:
     running mean) and wakes that much earlier, so the pass does not eat
     into the polling that puts the tick on time; a wake-up too late to fit
     it skips it. With no spin there is nothing to warm in: it never runs.
+
+    `watch`, if given, is called on every turn of the polling after the
+    warm pass with the deadline and the time: it must return at once when
+    there is nothing to do (stiction.daemon.prepare redoes a prepared tick
+    there when input arrived after it). It runs only where the warm pass
+    did.
     """
 
     virtual = False
@@ -88,7 +100,9 @@ class RealClock:
     def now(self) -> float:
         return time.monotonic()
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         spin = self.spin
         monotonic = time.monotonic
         lead = spin + self.warm_s if warm is not None and spin else spin
@@ -103,6 +117,10 @@ class RealClock:
                     took = min(monotonic() - start, WARM_CAP_S)
                     self.warm_s += (took - self.warm_s) * WARM_EMA
                     self.warmed += 1
+                    if watch is not None:
+                        while (now := monotonic()) < deadline:
+                            watch(deadline, now)
+                        return
                 else:
                     self.warm_skipped += 1
             while monotonic() < deadline:
@@ -136,7 +154,9 @@ class VirtualClock:
     def now(self) -> float:
         return self._now
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         """Jump to `deadline`; a virtual tick is not slowed by cold caches: no warm pass."""
         self._now = max(self._now, deadline)
 

@@ -46,6 +46,11 @@ from stiction.scene.pipeline import DeviceRun, Pipeline
 
 log = logging.getLogger("stiction.daemon.prepare")
 
+REDO_LEAD_S = 0.0001
+"""A preparation is redone for input that arrived after it only while this
+much is left before the deadline. A redo in the spin, with the caches
+warm, took PLACEHOLDER."""
+
 
 @dataclass(eq=False, slots=True)
 class Prepared:
@@ -99,8 +104,8 @@ class Preparer:
         """`warmer`: the warm pass for the devices that are not prepared."""
         self.daemon = daemon
         self.warmer = warmer
-        self.prepared: dict[int, Prepared] = {}
-        """By id of the slot, for the coming deadline only."""
+        self.prepared: dict[int, Prepared | None] = {}
+        """By id of the slot, for the coming deadline only (None: dropped in the spin)."""
         self.enabled = True
         self.hits = 0
         """Device ticks sent as prepared."""
@@ -109,6 +114,10 @@ class Preparer:
         self.unprepared = 0
         """Device ticks with nothing prepared (no spin before them, a relative
         mapping, a device going away, a failed step)."""
+        self.redone = 0
+        """Preparations redone in the spin because input arrived after them."""
+        self.watched: list[DeviceSlot] = []
+        """The slots prepared for the coming deadline."""
 
     def prepare(self, t: float) -> None:
         """Prepare every device's tick for the deadline `t`; never raises.
@@ -117,6 +126,7 @@ class Preparer:
         failure is a bug (the copies are ours alone): it turns preparing off
         for good, logged once, and the loop goes on with ordinary ticks."""
         self.prepared.clear()
+        self.watched.clear()
         rest: list[DeviceSlot] | None = None
         if self.enabled:
             try:
@@ -131,42 +141,81 @@ class Preparer:
     def _prepare(self, t: float) -> list[DeviceSlot]:
         """Prepare what can be; returns the open slots that were not."""
         d = self.daemon
-        pipeline = d.pipeline
-        tick = d.schedule.ticks
-        prev_t = d.last_tick_t
-        pub = d.publisher
-        encoded = hasattr(pub, "send_payload")
-        warm = getattr(pub, "warm_payload", None)
-        last_frames = d.last_frames
-        prepared = self.prepared
         rest: list[DeviceSlot] = []
+        watched = self.watched
+        watched.clear()
         for slot in d.slots:
-            run = slot.run
-            if run is None:
+            if slot.run is None:
                 continue
-            fork = None if slot.went_away else pipeline.fork(run)
-            if fork is None:
+            if self._prepare_slot(slot, t, warm=True):
+                watched.append(slot)
+            else:
                 rest.append(slot)
-                continue
-            drain_live(slot)
-            taken = select_live(slot, prev_t, t)
-            try:
-                contacts = pipeline.step(fork, t, prev_t, taken.samples)
-            except Exception:
-                continue  # the ordinary tick meets it again, and handles and logs it there
-            last = last_frames.get(slot.name)
-            quiet = not taken.samples and not contacts and last is not None and not last["contacts"]
-            t_input = taken.last_t if math.isfinite(taken.last_t) else None
-            frame = protocol.frame(tick, slot.sent_tick, t, t_input, slot.name, contacts)
-            topic = protocol.frame_topic(slot.name)
-            payload = protocol.encode(frame) if encoded else None
-            if payload is not None and warm is not None:
-                warm(topic, payload)  # the send path, warm for the real send
-            prepared[id(slot)] = Prepared(
-                tick, t, prev_t, run, run.mapping, pipeline, slot.sent_tick, taken, fork,
-                frame, topic, payload, quiet,
-            )  # fmt: skip
         return rest
+
+    def _prepare_slot(self, slot: DeviceSlot, t: float, warm: bool) -> bool:
+        """Prepare one device's tick at `t`; False if it cannot be (it gets the
+        warm pass then, or meets its problem again in the ordinary tick)."""
+        d = self.daemon
+        run = slot.run
+        pipeline = d.pipeline
+        fork = None if slot.went_away else pipeline.fork(run)
+        if fork is None:
+            return False
+        prev_t = d.last_tick_t
+        drain_live(slot)
+        taken = select_live(slot, prev_t, t)
+        try:
+            contacts = pipeline.step(fork, t, prev_t, taken.samples)
+        except Exception:
+            return False  # the ordinary tick meets it again, and handles and logs it there
+        last = d.last_frames.get(slot.name)
+        quiet = not taken.samples and not contacts and last is not None and not last["contacts"]
+        t_input = taken.last_t if math.isfinite(taken.last_t) else None
+        tick = d.schedule.ticks
+        frame = protocol.frame(tick, slot.sent_tick, t, t_input, slot.name, contacts)
+        topic = protocol.frame_topic(slot.name)
+        pub = d.publisher
+        payload = protocol.encode(frame) if hasattr(pub, "send_payload") else None
+        if warm and payload is not None:
+            send = getattr(pub, "warm_payload", None)
+            if send is not None:
+                send(topic, payload)  # the send path, warm for the real send
+        self.prepared[id(slot)] = Prepared(
+            tick, t, prev_t, run, run.mapping, pipeline, slot.sent_tick, taken, fork,
+            frame, topic, payload, quiet,
+        )  # fmt: skip
+        return True
+
+    def watch(self, deadline: float, now: float) -> None:
+        """Redo a prepared tick whose device delivered since, if there is time;
+        called on every turn of the spin's polling (clock.Watch), so it
+        returns at once when nothing arrived.
+
+        A redo runs with the caches the preparation warmed, in a fraction of
+        its time; a sample arriving later than REDO_LEAD_S before the
+        deadline makes the tick a miss instead of making it late."""
+        for slot in self.watched:
+            if slot.queue:
+                if deadline - now >= REDO_LEAD_S:
+                    self._redo(slot, deadline)
+                return
+
+    def _redo(self, slot: DeviceSlot, t: float) -> None:
+        self.watched.remove(slot)
+        try:
+            done = self.enabled and self._prepare_slot(slot, t, warm=False)
+        except Exception:
+            self.enabled = False
+            self.prepared.clear()
+            log.exception("prepare_failed (the loop goes on with ordinary ticks)")
+            return
+        if done:
+            self.watched.append(slot)
+            self.redone += 1
+        else:
+            # What was prepared lacks what arrived: the tick runs afresh.
+            self.prepared[id(slot)] = None
 
     def claim(self, slot: DeviceSlot, tick: int, t: float, prev_t: float) -> Prepared | None:
         """The slot's prepared tick if it still holds at the deadline, else None.
@@ -174,13 +223,15 @@ class Preparer:
         Checks only what can have changed since `prepare`: a sample queued,
         the device gone, the slot's contact state, mapping or the pipeline
         replaced. The caller commits what it is given."""
-        p = self.prepared.pop(id(slot), None)
-        if p is None:
+        key = id(slot)
+        if key not in self.prepared:
             self.unprepared += 1
             return None
+        p = self.prepared.pop(key)
         run = slot.run
         if (
-            slot.queue
+            p is None
+            or slot.queue
             or slot.went_away
             or p.run is not run
             or p.mapping is not run.mapping

@@ -298,6 +298,7 @@ class Daemon:
             if warmer is not None
             else None
         )
+        watch = self.preparer.watch if self.preparer is not None else None
         while not self._stop.is_set():
             if limit is not None and self.schedule.index >= limit:
                 break
@@ -307,7 +308,7 @@ class Daemon:
             if self._may_idle() and self._idle(limit):
                 continue
             deadline = self.schedule.deadline
-            self.clock.sleep_until(deadline, spin)
+            self.clock.sleep_until(deadline, spin, watch)
             woke = self.clock.now()
             cpu = time.thread_time()
             lateness = self.schedule.begin(woke)
