@@ -46,10 +46,13 @@ from stiction.scene.pipeline import DeviceRun, Pipeline
 
 log = logging.getLogger("stiction.daemon.prepare")
 
-REDO_LEAD_S = 0.0001
+REDO_LEAD_S = 0.0002
 """A preparation is redone for input that arrived after it only while this
-much is left before the deadline. A redo in the spin, with the caches
-warm, took PLACEHOLDER."""
+much is left before the deadline: a redo that ran past the deadline would
+start the tick late. Measured in a scratch run (synthetic:demo, no
+subscribers, 1000 ticks, load average 1.0), a preparation right after the
+first, the caches warm, took 64 us (p50), 126 (p90), 187 (p99); the first
+preparation after the sleep 352 us (p50)."""
 
 
 @dataclass(eq=False, slots=True)
