@@ -168,6 +168,9 @@ class FakeTime:
         self.slept.append(seconds)
         self.now += seconds + self.overshoot
 
+    def thread_time(self) -> float:
+        return self.now  # the thread runs all the time it is not sleeping
+
 
 def test_the_real_clock_learns_the_warm_pass_and_wakes_that_much_earlier(
     monkeypatch: pytest.MonkeyPatch,
@@ -215,3 +218,35 @@ def test_a_wake_up_too_late_for_the_pass_skips_it_and_a_stall_counts_as_1_ms(
     clock.sleep_until(102.0, stalled)
     assert clock.warmed == 1
     assert clock.warm_s == pytest.approx(clock_module.WARM_CAP_S * clock_module.WARM_EMA)
+
+
+def test_a_preparation_runs_on_a_late_wake_up_and_its_part_past_the_deadline_is_recorded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A pass given with a watch prepares the tick itself (stiction.daemon.prepare):
+    a wake-up too late for a warm pass still runs it, and the time it runs
+    past the deadline is kept for the loop to count as the tick's work."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(overshoot=0.00028)  # back 0.28 ms late: 0.02 ms before the deadline
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    watched: list[float] = []
+
+    def prepare(deadline: float) -> None:
+        fake.now += 0.0001  # the preparation takes 0.1 ms
+
+    clock.sleep_until(101.0, prepare, lambda d, now: watched.append(now))
+    assert (clock.warmed, clock.warm_skipped) == (1, 0)
+    assert clock.overrun == pytest.approx(0.0001 - 0.00002, abs=3e-5)
+    assert 0 < clock.overrun_cpu <= clock.overrun + 1e-9
+    assert watched == []  # past the deadline: no polling, no watch
+
+    fake.overshoot = 0.0
+    clock.sleep_until(102.0, prepare, lambda d, now: watched.append(now))
+    assert clock.overrun == 0.0 and clock.overrun_cpu == 0.0
+    assert watched and all(now < 102.0 for now in watched)
+
+    fake.now = 103.5  # woken after the deadline: nothing to prepare for
+    clock.sleep_until(103.0, prepare, lambda d, now: None)
+    assert (clock.warmed, clock.warm_skipped) == (2, 1)

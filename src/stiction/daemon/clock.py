@@ -83,7 +83,10 @@ class RealClock:
     warm pass with the deadline and the time: it must return at once when
     there is nothing to do (stiction.daemon.prepare redoes a prepared tick
     there when input arrived after it). It runs only where the warm pass
-    did.
+    did. A `warm` given with a watch is the loop's preparation of the tick
+    itself rather than a warm pass: it runs on any wake-up before the
+    deadline, and the part of it that runs past the deadline is recorded
+    (`overrun`) for the loop to count as the tick's work.
     """
 
     virtual = False
@@ -96,6 +99,11 @@ class RealClock:
         """Running mean of a warm pass's duration (s)."""
         self.warmed = 0
         self.warm_skipped = 0
+        self.overrun = 0.0
+        """How far the last sleep's warm pass ran past the deadline (s): the
+        loop counts it as the tick's work, not as its lateness."""
+        self.overrun_cpu = 0.0
+        """The CPU time of that part (the pass's CPU time in proportion)."""
 
     def now(self) -> float:
         return time.monotonic()
@@ -109,14 +117,26 @@ class RealClock:
         remaining = deadline - lead - monotonic()
         if remaining > 0:
             time.sleep(remaining)
+        self.overrun = self.overrun_cpu = 0.0
         if spin:
             if warm is not None:
                 start = monotonic()
-                if deadline - start >= self.warm_s + spin * WARM_MARGIN:
+                room = deadline - start
+                # A warm pass must leave the polling its reserve; a preparation
+                # (given with its watch) is the tick's own work, better begun
+                # late than after the deadline: it runs whenever there is room.
+                if room >= self.warm_s + spin * WARM_MARGIN or (watch is not None and room > 0):
+                    cpu = time.thread_time()
                     warm(deadline)
-                    took = min(monotonic() - start, WARM_CAP_S)
-                    self.warm_s += (took - self.warm_s) * WARM_EMA
+                    end = monotonic()
+                    took = end - start
+                    self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
                     self.warmed += 1
+                    if end > deadline:
+                        # Its part past the deadline is the tick's work, not lateness.
+                        self.overrun = end - deadline
+                        self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
+                        return
                     if watch is not None:
                         while (now := monotonic()) < deadline:
                             watch(deadline, now)
