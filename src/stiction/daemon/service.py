@@ -315,16 +315,17 @@ class Daemon:
             # A preparation that ran past the deadline (clock.RealClock.overrun):
             # the tick's own work, which the statistics count as such.
             overrun = getattr(self.clock, "overrun", 0.0)
-            if not self.virtual:
-                self.jitter.add(lateness - overrun)
             if self._reload.is_set():
                 self._reload.clear()
                 self._start_reload()
-            self._adopt()
+            hotplug = self.device_set.hotplug
+            if hotplug is not None and not hotplug.ready.empty():
+                self._adopt()
             self._tick(deadline, prev_t)
             prev_t = deadline
             done = self.clock.now()
             if not self.virtual:
+                self.jitter.add(lateness - overrun)
                 self.cost.add(done - woke + overrun)
                 over_cpu = getattr(self.clock, "overrun_cpu", 0.0)
                 self.cost_cpu.add(time.thread_time() - cpu + over_cpu)
@@ -458,16 +459,16 @@ class Daemon:
     def _send_prepared(self, slot: DeviceSlot, p: Prepared, tick: int, t: float) -> None:
         """The tick for `slot` as prepared before the deadline (prepare.py):
         what the ordinary tick below does for a device that is not finished."""
+        pub: Any = self.publisher
+        if p.payload is not None:
+            pub.send_payload(p.topic, p.payload)  # first: the rest is bookkeeping
+        else:
+            pub.send(p.topic, p.frame)
         p.commit(slot)
         taken = p.taken
         if taken.samples:
             slot.meter.add(len(taken.samples), t)
         slot.quiet = p.quiet
-        pub: Any = self.publisher
-        if p.payload is not None:
-            pub.send_payload(p.topic, p.payload)
-        else:
-            pub.send(p.topic, p.frame)
         self.last_frames[slot.name] = p.frame
         slot.sent_tick = tick
         if taken.newest is not None:
