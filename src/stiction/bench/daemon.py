@@ -376,6 +376,9 @@ def run_daemon(
             extra["warm_pass_ms"] = getattr(daemon.clock, "warm_s", 0.0) * 1e3
             extra["warm_passes"] = getattr(daemon.clock, "warmed", 0)
             extra["warm_skipped"] = getattr(daemon.clock, "warm_skipped", 0)
+            extra["warm_overran"] = getattr(daemon.clock, "overran", 0)
+            preparer = daemon.preparer
+            extra["prepared_again"] = preparer.redone if preparer is not None else 0
             # waits[k + 1] spans tick k's sleep and work (read before each sleep)
             extra["run_queue_wait_s"] = np.asarray([*waits[1:], 0.0], dtype=np.float64)
         stats: dict[str, Any] = dict(daemon.stats())
@@ -784,6 +787,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "prepared_hits": stats.get("prepared_hits", 0),
         "prepared_misses": stats.get("prepared_misses", 0),
         "unprepared": stats.get("unprepared", 0),
+        "prepared_again": extra.get("prepared_again"),
+        "prepare_overran": extra.get("warm_overran"),
         "cpu_by_thread_pct": extra.get("cpu_by_thread_pct", {}),
     }
     # The same deadlines' frames for both (raw pyzmq's grid is shifted, so
@@ -972,9 +977,10 @@ def _table(res: dict[str, Any]) -> str:
         )
     warm = d.get("warm_pass_ms")
     skipped = d.get("warm_skipped")
+    what = "preparation" if d.get("prepare") else "warm pass"
     lines.append(
-        f"{'warm pass in the spin (ms)':<34}{'':>24}"
-        f"{(_f(warm, '.3f') if d.get('warm', True) else 'off'):>12}"
+        f"{what + ' in the spin (ms)':<34}{'':>24}"
+        f"{(_f(warm, '.3f') if d.get('warm', True) or d.get('prepare') else 'off'):>12}"
         + (f"   (skipped before {skipped} late wake-ups)" if skipped else "")
     )
     if d.get("prepare", False):
@@ -982,7 +988,9 @@ def _table(res: dict[str, Any]) -> str:
         total = max(hits + misses + none, 1)
         lines.append(
             f"{'prepared ticks sent/dropped/none':<34}{'':>24}"
-            f"{f'{hits}/{misses}/{none}':>12}   ({100 * hits / total:.1f}% sent as prepared)"
+            f"{f'{hits}/{misses}/{none}':>12}   ({100 * hits / total:.1f}% sent as prepared; "
+            f"{d.get('prepared_again') or 0} prepared again for late input, "
+            f"{d.get('prepare_overran') or 0} ran past the deadline)"
         )
     else:
         lines.append(f"{'prepared ticks':<34}{'':>24}{'off':>12}")

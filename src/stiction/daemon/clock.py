@@ -104,6 +104,8 @@ class RealClock:
         loop counts it as the tick's work, not as its lateness."""
         self.overrun_cpu = 0.0
         """The CPU time of that part (the pass's CPU time in proportion)."""
+        self.overran = 0
+        """Passes that ran past their deadline."""
 
     def now(self) -> float:
         return time.monotonic()
@@ -135,6 +137,7 @@ class RealClock:
                     if end > deadline:
                         # Its part past the deadline is the tick's work, not lateness.
                         self.overrun = end - deadline
+                        self.overran += 1
                         self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
                         return
                     if watch is not None:
