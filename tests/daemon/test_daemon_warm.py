@@ -217,6 +217,7 @@ def test_a_wake_up_too_late_for_the_pass_skips_it_and_a_stall_counts_as_1_ms(
 
     clock.sleep_until(102.0, stalled)
     assert clock.warmed == 1
+    assert (clock.overrun, clock.overran) == (0.0, 0)  # a warm pass's stall is lateness
     assert clock.warm_s == pytest.approx(clock_module.WARM_CAP_S * clock_module.WARM_EMA)
 
 

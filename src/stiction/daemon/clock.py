@@ -105,7 +105,7 @@ class RealClock:
         self.overrun_cpu = 0.0
         """The CPU time of that part (the pass's CPU time in proportion)."""
         self.overran = 0
-        """Passes that ran past their deadline."""
+        """Preparations that ran past their deadline."""
 
     def now(self) -> float:
         return time.monotonic()
@@ -134,8 +134,9 @@ class RealClock:
                     took = end - start
                     self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
                     self.warmed += 1
-                    if end > deadline:
-                        # Its part past the deadline is the tick's work, not lateness.
+                    if end > deadline and watch is not None:
+                        # A preparation's part past the deadline is the tick's
+                        # work; a warm pass's is lateness, as the tick starts after it.
                         self.overrun = end - deadline
                         self.overran += 1
                         self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
