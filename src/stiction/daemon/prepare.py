@@ -12,6 +12,10 @@ loop reads is changed, except that the reader's queue is moved to the
 slot's pending samples, which the tick would do first anyway in the same
 order (devices.drain_live).
 
+While the clock then polls, `Preparer.watch` looks at the prepared
+devices' queues and prepares a device again when a sample arrived, as
+long as REDO_LEAD_S is left before the deadline.
+
 At the deadline, `Preparer.claim` hands the loop a device's prepared tick
 if it still holds: no sample arrived since (the queue is still empty),
 the device did not go away, and the slot's contact state, mapping and the
@@ -28,7 +32,8 @@ keeps a cursor) is not prepared; it, and a device going away, get the warm
 pass instead (stiction.daemon.warm). Frames are byte for byte those of a
 loop that never prepares: tests/daemon/test_daemon_prepare.py drives both
 on a scripted clock with samples arriving before and after the
-preparation, contacts starting and ending and a device leaving.
+preparation, contacts starting and ending, a device leaving and coming
+back, and a parameter change after a preparation.
 """
 
 from __future__ import annotations
