@@ -251,3 +251,36 @@ def test_a_preparation_runs_on_a_late_wake_up_and_its_part_past_the_deadline_is_
     fake.now = 103.5  # woken after the deadline: nothing to prepare for
     clock.sleep_until(103.0, prepare, lambda d, now: None)
     assert (clock.warmed, clock.warm_skipped) == (2, 1)
+
+
+def test_a_watch_whose_work_runs_past_the_deadline_is_recorded_as_the_ticks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The preparation redone in the spin (stiction.daemon.prepare) may start
+    just before the deadline; what it spends past it is the tick's work."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime()
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    calls: list[float] = []
+
+    def prepare(deadline: float) -> None:
+        fake.now += 0.0001
+
+    def redo_late(deadline: float, now: float) -> bool:
+        calls.append(now)
+        if deadline - now < 0.00005:  # input just before the deadline: redo it
+            fake.now += 0.00006
+            return True
+        return False
+
+    clock.sleep_until(101.0, prepare, redo_late)
+    assert clock.overran == 1
+    assert 0.00001 <= clock.overrun <= 0.00006 and clock.overrun_cpu == clock.overrun
+
+    def idle(deadline: float, now: float) -> bool:
+        return False
+
+    clock.sleep_until(102.0, prepare, idle)
+    assert (clock.overrun, clock.overran) == (0.0, 1)

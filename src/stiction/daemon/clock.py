@@ -33,9 +33,10 @@ PR_SET_TIMERSLACK = 29
 Warm = Callable[[float], None]
 """What the loop runs at the start of its spin, given the coming deadline."""
 
-Watch = Callable[[float, float], None]
+Watch = Callable[[float, float], bool]
 """What the loop runs on each turn of the spin's polling, given the coming
-deadline and the time now (the prepared tick redone when input arrives)."""
+deadline and the time now (the prepared tick redone when input arrives);
+True when it did some of the tick's work."""
 
 WARM_MARGIN = 0.2
 """The warm pass runs only if its expected duration plus this share of the
@@ -85,8 +86,10 @@ class RealClock:
     there when input arrived after it). It runs only where the warm pass
     did. A `warm` given with a watch is the loop's preparation of the tick
     itself rather than a warm pass: it runs on any wake-up before the
-    deadline, and the part of it that runs past the deadline is recorded
-    (`overrun`) for the loop to count as the tick's work.
+    deadline, and the part of it (or of the watch's work) that runs past
+    the deadline is recorded (`overrun`) for the loop to count as the
+    tick's work (for the watch's, the wall-clock time stands for its CPU
+    time too: it runs without sleeping).
     """
 
     virtual = False
@@ -142,8 +145,13 @@ class RealClock:
                         self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
                         return
                     if watch is not None:
+                        past = 0.0
                         while (now := monotonic()) < deadline:
-                            watch(deadline, now)
+                            if watch(deadline, now):
+                                past = monotonic() - deadline
+                        if past > 0:  # the watch's work ran past the deadline
+                            self.overrun = self.overrun_cpu = past
+                            self.overran += 1
                         return
                 else:
                     self.warm_skipped += 1

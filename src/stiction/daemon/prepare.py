@@ -13,8 +13,7 @@ slot's pending samples, which the tick would do first anyway in the same
 order (devices.drain_live).
 
 While the clock then polls, `Preparer.watch` looks at the prepared
-devices' queues and prepares a device again when a sample arrived, as
-long as REDO_LEAD_S is left before the deadline.
+devices' queues and prepares a device again when a sample arrived.
 
 At the deadline, `Preparer.claim` hands the loop a device's prepared tick
 if it still holds: no sample arrived since (the queue is still empty),
@@ -23,9 +22,10 @@ pipeline are the objects it was computed from (a reopened device, a scene
 or parameter change replace them). The loop then commits it (the pending
 samples it took, the stepped copy as the device's state) and sends the
 bytes already encoded. Otherwise it is dropped and the loop runs the
-ordinary tick: a sample that arrives even after the deadline's mapped time
-still moves the device clock's offset, and with it the times of the
-samples the tick takes, so any arrival makes a miss.
+ordinary tick: a sample that arrives (between the last turn of the polling
+and the tick), even one whose mapped time is after the deadline, still
+moves the device clock's offset, and with it the times of the samples the
+tick takes, so any arrival makes a miss.
 
 A device whose mapping has no affine form (a touchpad's relative mapping
 keeps a cursor) is not prepared; it, and a device going away, get the warm
@@ -50,14 +50,6 @@ from stiction.daemon.warm import Warmer
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
 log = logging.getLogger("stiction.daemon.prepare")
-
-REDO_LEAD_S = 0.0002
-"""A preparation is redone for input that arrived after it only while this
-much is left before the deadline: a redo that ran past the deadline would
-start the tick late. Measured in a scratch run (synthetic:demo, no
-subscribers, 1000 ticks, load average 1.0), a preparation right after the
-first, the caches warm, took 64 us (p50), 126 (p90), 187 (p99); the first
-preparation after the sleep 352 us (p50)."""
 
 
 @dataclass(eq=False, slots=True)
@@ -195,19 +187,23 @@ class Preparer:
         )  # fmt: skip
         return True
 
-    def watch(self, deadline: float, now: float) -> None:
-        """Redo a prepared tick whose device delivered since, if there is time;
-        called on every turn of the spin's polling (clock.Watch), so it
-        returns at once when nothing arrived.
+    def watch(self, deadline: float, now: float) -> bool:
+        """Redo a prepared tick whose device delivered since; called on every
+        turn of the spin's polling (clock.Watch), so it returns at once when
+        nothing arrived. True if it redid one.
 
-        A redo runs with the caches the preparation warmed, in a fraction of
-        its time; a sample arriving later than REDO_LEAD_S before the
-        deadline makes the tick a miss instead of making it late."""
+        A redo runs with the caches the preparation warmed: in a scratch run
+        (synthetic:demo, no subscribers, 1000 ticks, load average 1.0) a
+        second preparation right after the first took 64 us (p50), 126
+        (p90), 187 (p99), where the first took 352 us (p50). So it is done
+        however little time is left: the ordinary tick it spares would do
+        the same work after the deadline, and the clock counts the redo's
+        part past the deadline as the tick's work."""
         for slot in self.watched:
             if slot.queue:
-                if deadline - now >= REDO_LEAD_S:
-                    self._redo(slot, deadline)
-                return
+                self._redo(slot, deadline)
+                return True
+        return False
 
     def _redo(self, slot: DeviceSlot, t: float) -> None:
         self.watched.remove(slot)
