@@ -284,3 +284,30 @@ def test_a_watch_whose_work_runs_past_the_deadline_is_recorded_as_the_ticks(
 
     clock.sleep_until(102.0, prepare, idle)
     assert (clock.overrun, clock.overran) == (0.0, 1)
+
+
+def test_after_a_preparation_the_polling_sleeps_in_short_steps_then_spins(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A reader gets the interpreter while the deadline is far, and the last
+    YIELD_UNTIL_S is a spin, so the loop still leaves it on time."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(poll=1e-6)
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    left: list[float] = []
+
+    def watch(deadline: float, now: float) -> bool:
+        left.append(deadline - now)
+        return False
+
+    clock.sleep_until(101.0, lambda d: None, watch)
+    naps = fake.slept[1:]  # after the sleep to the spin
+    assert len(naps) >= 5 and set(naps) == {clock_module.YIELD_S}
+    assert min(left) < clock_module.YIELD_UNTIL_S / 10  # spun to the end
+    assert fake.now >= 101.0
+
+    fake.slept.clear()
+    clock.sleep_until(102.0)  # no preparation: a bare spin, no naps
+    assert len(fake.slept) == 1
