@@ -155,21 +155,28 @@ class RealClock:
                         self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
                         return
                     if watch is not None:
-                        past = 0.0
-                        sleep = time.sleep
-                        while (now := monotonic()) < deadline:
-                            if watch(deadline, now):
-                                past = monotonic() - deadline
-                            elif deadline - now > YIELD_UNTIL_S:
-                                sleep(YIELD_S)  # the readers take the interpreter meanwhile
-                        if past > 0:  # the watch's work ran past the deadline
-                            self.overrun = self.overrun_cpu = past
-                            self.overran += 1
+                        self._watch_until(deadline, watch)
                         return
                 else:
                     self.warm_skipped += 1
             while monotonic() < deadline:
                 pass
+
+    def _watch_until(self, deadline: float, watch: Watch) -> None:
+        """Poll to the deadline after a preparation, running `watch` on every
+        turn and napping YIELD_S at a time while more than YIELD_UNTIL_S is
+        left; the watch's work past the deadline is recorded as `overrun`."""
+        monotonic = time.monotonic
+        sleep = time.sleep
+        past = 0.0
+        while (now := monotonic()) < deadline:
+            if watch(deadline, now):
+                past = monotonic() - deadline
+            elif deadline - now > YIELD_UNTIL_S:
+                sleep(YIELD_S)  # the readers take the interpreter meanwhile
+        if past > 0:
+            self.overrun = self.overrun_cpu = past
+            self.overran += 1
 
 
 def tighten_timer_slack() -> bool:
