@@ -514,6 +514,12 @@ class StatsWire(TypedDict):
     latency_ms: Summary
     tick_cost_ms: Summary
     tick_cpu_ms: Summary
+    prepared_hits: int
+    """Device ticks sent as prepared before the deadline (stiction.daemon.prepare)."""
+    prepared_misses: int
+    """Device ticks prepared, then dropped for an ordinary tick (input arrived in between)."""
+    unprepared: int
+    """Device ticks with nothing prepared (no spin before them, a relative mapping, ...)."""
     published: int
     publish_dropped: int
     control_requests: int

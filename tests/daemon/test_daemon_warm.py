@@ -15,7 +15,7 @@ import pytest
 import zmq
 
 from stiction import protocol
-from stiction.daemon.clock import RealClock, VirtualClock, Warm
+from stiction.daemon.clock import RealClock, VirtualClock, Warm, Watch
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.options import Options
 from stiction.daemon.publisher import Publisher, Recorder
@@ -31,7 +31,9 @@ class WarmingClock(VirtualClock):
         super().__init__(start)
         self.warmed = 0
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         assert warm is not None, "the loop gave its clock no warm pass"
         warm(deadline)
         self.warmed += 1
@@ -166,6 +168,9 @@ class FakeTime:
         self.slept.append(seconds)
         self.now += seconds + self.overshoot
 
+    def thread_time(self) -> float:
+        return self.now  # the thread runs all the time it is not sleeping
+
 
 def test_the_real_clock_learns_the_warm_pass_and_wakes_that_much_earlier(
     monkeypatch: pytest.MonkeyPatch,
@@ -212,4 +217,97 @@ def test_a_wake_up_too_late_for_the_pass_skips_it_and_a_stall_counts_as_1_ms(
 
     clock.sleep_until(102.0, stalled)
     assert clock.warmed == 1
+    assert (clock.overrun, clock.overran) == (0.0, 0)  # a warm pass's stall is lateness
     assert clock.warm_s == pytest.approx(clock_module.WARM_CAP_S * clock_module.WARM_EMA)
+
+
+def test_a_preparation_runs_on_a_late_wake_up_and_its_part_past_the_deadline_is_recorded(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A pass given with a watch prepares the tick itself (stiction.daemon.prepare):
+    a wake-up too late for a warm pass still runs it, and the time it runs
+    past the deadline is kept for the loop to count as the tick's work."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(overshoot=0.00028)  # back 0.28 ms late: 0.02 ms before the deadline
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    watched: list[float] = []
+
+    def prepare(deadline: float) -> None:
+        fake.now += 0.0001  # the preparation takes 0.1 ms
+
+    clock.sleep_until(101.0, prepare, lambda d, now: watched.append(now))
+    assert (clock.warmed, clock.warm_skipped) == (1, 0)
+    assert clock.overrun == pytest.approx(0.0001 - 0.00002, abs=3e-5)
+    assert 0 < clock.overrun_cpu <= clock.overrun + 1e-9
+    assert watched == []  # past the deadline: no polling, no watch
+
+    fake.overshoot = 0.0
+    clock.sleep_until(102.0, prepare, lambda d, now: watched.append(now))
+    assert clock.overrun == 0.0 and clock.overrun_cpu == 0.0
+    assert watched and all(now < 102.0 for now in watched)
+
+    fake.now = 103.5  # woken after the deadline: nothing to prepare for
+    clock.sleep_until(103.0, prepare, lambda d, now: None)
+    assert (clock.warmed, clock.warm_skipped) == (2, 1)
+
+
+def test_a_watch_whose_work_runs_past_the_deadline_is_recorded_as_the_ticks(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The preparation redone in the spin (stiction.daemon.prepare) may start
+    just before the deadline; what it spends past it is the tick's work."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime()
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    calls: list[float] = []
+
+    def prepare(deadline: float) -> None:
+        fake.now += 0.0001
+
+    def redo_late(deadline: float, now: float) -> bool:
+        calls.append(now)
+        if deadline - now < 0.00005:  # input just before the deadline: redo it
+            fake.now += 0.00006
+            return True
+        return False
+
+    clock.sleep_until(101.0, prepare, redo_late)
+    assert clock.overran == 1
+    assert 0.00001 <= clock.overrun <= 0.00006 and clock.overrun_cpu == clock.overrun
+
+    def idle(deadline: float, now: float) -> bool:
+        return False
+
+    clock.sleep_until(102.0, prepare, idle)
+    assert (clock.overrun, clock.overran) == (0.0, 1)
+
+
+def test_after_a_preparation_the_polling_sleeps_in_short_steps_then_spins(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A reader gets the interpreter while the deadline is far, and the last
+    YIELD_UNTIL_S is a spin, so the loop still leaves it on time."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(poll=1e-6)
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    left: list[float] = []
+
+    def watch(deadline: float, now: float) -> bool:
+        left.append(deadline - now)
+        return False
+
+    clock.sleep_until(101.0, lambda d: None, watch)
+    naps = fake.slept[1:]  # after the sleep to the spin
+    assert len(naps) >= 5 and set(naps) == {clock_module.YIELD_S}
+    assert min(left) < clock_module.YIELD_UNTIL_S / 10  # spun to the end
+    assert fake.now >= 101.0
+
+    fake.slept.clear()
+    clock.sleep_until(102.0)  # no preparation: a bare spin, no naps
+    assert len(fake.slept) == 1

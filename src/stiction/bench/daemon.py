@@ -295,6 +295,7 @@ def run_daemon(
     warm: bool = True,
     extra: dict[str, Any] | None = None,
     slice_ms: float | None = None,
+    prepare: bool = True,
 ) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
     """Run stictiond in this process; returns its stats, CPU %, grid start,
     and the lateness of every tick it ran with that tick's grid index.
@@ -304,6 +305,7 @@ def run_daemon(
     runs beside the daemon), so that setting up does not make the first
     tick late.
     `warm`: the loop's warm pass during the spin (stiction.daemon.warm).
+    `prepare`: the loop's prepared tick during the spin (stiction.daemon.prepare).
     `slice_ms`: ask the fair scheduler for slices this long for the loop
     thread (stiction.daemon.clock.request_slice; this thread runs the loop).
     `extra`, if given, receives the CPU of each of the daemon's threads and
@@ -328,6 +330,7 @@ def run_daemon(
         opts.spin_ms = spin_ms
     daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
     daemon.warm_spin = warm
+    daemon.prepare_spin = prepare
     daemon.open()
     # The steady state is measured, not numba compiling the scene tick on a
     # thread beside the first ticks (seconds to a minute on a fresh checkout:
@@ -373,6 +376,9 @@ def run_daemon(
             extra["warm_pass_ms"] = getattr(daemon.clock, "warm_s", 0.0) * 1e3
             extra["warm_passes"] = getattr(daemon.clock, "warmed", 0)
             extra["warm_skipped"] = getattr(daemon.clock, "warm_skipped", 0)
+            extra["warm_overran"] = getattr(daemon.clock, "overran", 0)
+            preparer = daemon.preparer
+            extra["prepared_again"] = preparer.redone if preparer is not None else 0
             # waits[k + 1] spans tick k's sleep and work (read before each sleep)
             extra["run_queue_wait_s"] = np.asarray([*waits[1:], 0.0], dtype=np.float64)
         stats: dict[str, Any] = dict(daemon.stats())
@@ -409,14 +415,14 @@ def _watch_run_queue(daemon: Any) -> tuple[list[float], Callable[[], None]]:
     sleep_until = clock.sleep_until
     last = [-1]
 
-    def watched(deadline: float, warm: Any = None) -> None:
+    def watched(deadline: float, warm: Any = None, *more: Any) -> None:
         waited = _run_queue_ns(fd)
         if last[0] >= 0:
             waits.append((waited - last[0]) / 1e9)
         else:
             waits.append(0.0)
         last[0] = waited
-        sleep_until(deadline, warm)
+        sleep_until(deadline, warm, *more)
 
     clock.sleep_until = watched
     return waits, lambda: os.close(fd)
@@ -628,6 +634,12 @@ def main(argv: list[str]) -> int:
         action="store_true",
         help="the daemon's loop without its warm pass in the spin (to measure what it buys)",
     )
+    ap.add_argument(
+        "--no-prepare",
+        action="store_true",
+        help="the daemon's loop without its prepared tick (each tick computed after its "
+        "deadline, as before; to measure what preparing buys)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.seconds <= 0.5:
@@ -680,6 +692,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "spin_ms": args.spin_ms,
         "realtime": args.realtime,
         "warm": not args.no_warm,
+        "prepare": not args.no_prepare,
         "extra": extra,
         "slice_ms": args.slice_ms,
     }
@@ -769,6 +782,13 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "warm_pass_ms": extra.get("warm_pass_ms"),
         "warm_passes": extra.get("warm_passes"),
         "warm_skipped": extra.get("warm_skipped"),
+        "prepare": not args.no_prepare,
+        # device ticks sent as prepared / prepared but run afresh / not prepared
+        "prepared_hits": stats.get("prepared_hits", 0),
+        "prepared_misses": stats.get("prepared_misses", 0),
+        "unprepared": stats.get("unprepared", 0),
+        "prepared_again": extra.get("prepared_again"),
+        "prepare_overran": extra.get("warm_overran"),
         "cpu_by_thread_pct": extra.get("cpu_by_thread_pct", {}),
     }
     # The same deadlines' frames for both (raw pyzmq's grid is shifted, so
@@ -834,6 +854,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         stem += f"-rt{args.realtime}"
     if args.no_warm:
         stem += "-nowarm"
+    if args.no_prepare:
+        stem += "-noprep"
     if args.slice_ms is not None:
         stem += f"-slice{args.slice_ms:g}"
     (results_dir() / f"{stem}.txt").write_text(table + "\n")
@@ -955,11 +977,23 @@ def _table(res: dict[str, Any]) -> str:
         )
     warm = d.get("warm_pass_ms")
     skipped = d.get("warm_skipped")
+    what = "preparation" if d.get("prepare") else "warm pass"
     lines.append(
-        f"{'warm pass in the spin (ms)':<34}{'':>24}"
-        f"{(_f(warm, '.3f') if d.get('warm', True) else 'off'):>12}"
+        f"{what + ' in the spin (ms)':<34}{'':>24}"
+        f"{(_f(warm, '.3f') if d.get('warm', True) or d.get('prepare') else 'off'):>12}"
         + (f"   (skipped before {skipped} late wake-ups)" if skipped else "")
     )
+    if d.get("prepare", False):
+        hits, misses, none = d["prepared_hits"], d["prepared_misses"], d["unprepared"]
+        total = max(hits + misses + none, 1)
+        lines.append(
+            f"{'prepared ticks sent/dropped/none':<34}{'':>24}"
+            f"{f'{hits}/{misses}/{none}':>12}   ({100 * hits / total:.1f}% sent as prepared; "
+            f"{d.get('prepared_again') or 0} prepared again for late input, "
+            f"{d.get('prepare_overran') or 0} ran past the deadline)"
+        )
+    else:
+        lines.append(f"{'prepared ticks':<34}{'':>24}{'off':>12}")
     threads = d.get("cpu_by_thread_pct") or {}
     if threads:
         parts = ", ".join(f"{name} {pct:.2f}" for name, pct in threads.items() if pct >= 0.005)

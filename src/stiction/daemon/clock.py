@@ -33,6 +33,11 @@ PR_SET_TIMERSLACK = 29
 Warm = Callable[[float], None]
 """What the loop runs at the start of its spin, given the coming deadline."""
 
+Watch = Callable[[float, float], bool]
+"""What the loop runs on each turn of the spin's polling, given the coming
+deadline and the time now (the prepared tick redone when input arrives);
+True when it did some of the tick's work."""
+
 WARM_MARGIN = 0.2
 """The warm pass runs only if its expected duration plus this share of the
 spin is left when the sleep ends: a later wake-up goes straight to polling.
@@ -46,11 +51,23 @@ WARM_CAP_S = 0.001
 estimate, so one stall does not make every following wake-up early."""
 WARM_EMA = 0.05
 """Weight of the newest warm pass in the running estimate of its duration."""
+YIELD_S = 20e-6
+YIELD_UNTIL_S = 150e-6
+"""After a preparation, the polling sleeps YIELD_S at a time while more
+than YIELD_UNTIL_S is left, then spins. Spinning throughout, the loop held
+the interpreter for the whole 0.5-0.7 ms it was awake before the deadline,
+and a reader, decoding in Python in 0.2 ms switch intervals, had most
+samples due in that time stamped after the deadline (a period more of
+latency for them; docs/daemon.md, "Issue 15: the prepared tick"). The
+sleeps hand it the interpreter; the last 0.15 ms stays a spin, which a
+20 us sleep's overshoot on the development VM stays well inside."""
 
 
 class Clock(Protocol):
     def now(self) -> float: ...
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None: ...
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None: ...
 
 
 class RealClock:
@@ -72,6 +89,17 @@ class RealClock:
     running mean) and wakes that much earlier, so the pass does not eat
     into the polling that puts the tick on time; a wake-up too late to fit
     it skips it. With no spin there is nothing to warm in: it never runs.
+
+    `watch`, if given, is called on every turn of the polling after the
+    warm pass with the deadline and the time: it must return at once when
+    there is nothing to do (stiction.daemon.prepare redoes a prepared tick
+    there when input arrived after it). It runs only where the warm pass
+    did. A `warm` given with a watch is the loop's preparation of the tick
+    itself rather than a warm pass: it runs on any wake-up before the
+    deadline, and the part of it (or of the watch's work) that runs past
+    the deadline is recorded (`overrun`) for the loop to count as the
+    tick's work (for the watch's, the wall-clock time stands for its CPU
+    time too: it runs without sleeping).
     """
 
     virtual = False
@@ -84,29 +112,71 @@ class RealClock:
         """Running mean of a warm pass's duration (s)."""
         self.warmed = 0
         self.warm_skipped = 0
+        self.overrun = 0.0
+        """How far the last sleep's warm pass ran past the deadline (s): the
+        loop counts it as the tick's work, not as its lateness."""
+        self.overrun_cpu = 0.0
+        """The CPU time of that part (the pass's CPU time in proportion)."""
+        self.overran = 0
+        """Preparations that ran past their deadline."""
 
     def now(self) -> float:
         return time.monotonic()
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         spin = self.spin
         monotonic = time.monotonic
         lead = spin + self.warm_s if warm is not None and spin else spin
         remaining = deadline - lead - monotonic()
         if remaining > 0:
             time.sleep(remaining)
+        self.overrun = self.overrun_cpu = 0.0
         if spin:
             if warm is not None:
                 start = monotonic()
-                if deadline - start >= self.warm_s + spin * WARM_MARGIN:
+                room = deadline - start
+                # A warm pass must leave the polling its reserve; a preparation
+                # (given with its watch) is the tick's own work, better begun
+                # late than after the deadline: it runs whenever there is room.
+                if room >= self.warm_s + spin * WARM_MARGIN or (watch is not None and room > 0):
+                    cpu = time.thread_time()
                     warm(deadline)
-                    took = min(monotonic() - start, WARM_CAP_S)
-                    self.warm_s += (took - self.warm_s) * WARM_EMA
+                    end = monotonic()
+                    took = end - start
+                    self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
                     self.warmed += 1
+                    if end > deadline and watch is not None:
+                        # A preparation's part past the deadline is the tick's
+                        # work; a warm pass's is lateness, as the tick starts after it.
+                        self.overrun = end - deadline
+                        self.overran += 1
+                        self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
+                        return
+                    if watch is not None:
+                        self._watch_until(deadline, watch)
+                        return
                 else:
                     self.warm_skipped += 1
             while monotonic() < deadline:
                 pass
+
+    def _watch_until(self, deadline: float, watch: Watch) -> None:
+        """Poll to the deadline after a preparation, running `watch` on every
+        turn and napping YIELD_S at a time while more than YIELD_UNTIL_S is
+        left; the watch's work past the deadline is recorded as `overrun`."""
+        monotonic = time.monotonic
+        sleep = time.sleep
+        past = 0.0
+        while (now := monotonic()) < deadline:
+            if watch(deadline, now):
+                past = monotonic() - deadline
+            elif deadline - now > YIELD_UNTIL_S:
+                sleep(YIELD_S)  # the readers take the interpreter meanwhile
+        if past > 0:
+            self.overrun = self.overrun_cpu = past
+            self.overran += 1
 
 
 def tighten_timer_slack() -> bool:
@@ -136,7 +206,9 @@ class VirtualClock:
     def now(self) -> float:
         return self._now
 
-    def sleep_until(self, deadline: float, warm: Warm | None = None) -> None:
+    def sleep_until(
+        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+    ) -> None:
         """Jump to `deadline`; a virtual tick is not slowed by cold caches: no warm pass."""
         self._now = max(self._now, deadline)
 

@@ -404,6 +404,30 @@ def take_live(slot: DeviceSlot, prev_t: float, t: float) -> tuple[list[PenSample
     it so that none is lost. Returns the samples and the arrival time of the
     newest one handed over (for the latency statistic).
     """
+    drain_live(slot)
+    taken = select_live(slot, prev_t, t)
+    commit_live(slot, taken)
+    return taken.samples, taken.newest
+
+
+@dataclass(slots=True)
+class Taken:
+    """What `select_live` would hand a tick, before anything is removed."""
+
+    samples: list[PenSample]
+    newest: float | None
+    """Arrival time of the newest sample handed over (None: none)."""
+    last_t: float
+    """The slot's `last_t` once they are taken."""
+
+
+def drain_live(slot: DeviceSlot) -> None:
+    """Move what the reader queued into the slot's pending samples, learning
+    the device clock from each arrival.
+
+    Done at a tick, or earlier (the loop's prepared tick, stiction.daemon.prepare):
+    the clock sees the same arrivals in the same order either way, so when
+    the draining happens changes nothing that is taken later."""
     q = slot.queue
     pending = slot.pending
     while q:
@@ -413,21 +437,33 @@ def take_live(slot: DeviceSlot, prev_t: float, t: float) -> tuple[list[PenSample
             continue
         slot.clock.observe(s.t, arrival)
         pending.append((s, arrival))
+
+
+def select_live(slot: DeviceSlot, prev_t: float, t: float) -> Taken:
+    """The pending samples a tick at `t` takes, retimed, without taking them."""
     out: list[PenSample] = []
     newest: float | None = None
     floor = math.nextafter(prev_t, math.inf)
-    while pending:
-        s, arrival = pending[0]
-        lt = slot.clock.to_loop(s.t)
+    last_t = slot.last_t
+    to_loop = slot.clock.to_loop
+    for s, arrival in slot.pending:
+        lt = to_loop(s.t)
         if lt > t:
             break
-        pending.popleft()
-        lt = max(lt, floor, slot.last_t)
-        slot.last_t = lt
+        lt = max(lt, floor, last_t)
+        last_t = lt
         out.append(_retime(s, lt))
         newest = arrival
-    slot.samples += len(out)
-    return out, newest
+    return Taken(out, newest, last_t)
+
+
+def commit_live(slot: DeviceSlot, taken: Taken) -> None:
+    """Remove what `select_live` selected from the slot's pending samples."""
+    pending = slot.pending
+    for _ in range(len(taken.samples)):
+        pending.popleft()
+    slot.last_t = taken.last_t
+    slot.samples += len(taken.samples)
 
 
 def take_virtual(slot: DeviceSlot, t: float) -> list[PenSample]:

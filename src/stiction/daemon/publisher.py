@@ -32,7 +32,10 @@ class Sink(Protocol):
     A sink may also have ``warm(topic, message)``: the send path run on a
     message that goes nowhere, which the loop calls during its spin before a
     deadline (stiction.daemon.warm). It is optional; a sink without it is
-    simply not warmed."""
+    simply not warmed. Likewise optional: ``send_payload(topic, payload)``
+    and ``warm_payload(topic, payload)``, the same with a message encoded
+    before, which the loop's prepared tick (stiction.daemon.prepare) uses;
+    without them it sends the message through ``send``."""
 
     endpoint: str
     sent: int
@@ -67,17 +70,24 @@ class Publisher:
     def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes:
         """Publish one message; returns the payload (kept for snapshots and tests)."""
         payload = protocol.encode(message)
+        self.send_payload(topic, payload)
+        return payload
+
+    def send_payload(self, topic: bytes, payload: bytes) -> None:
+        """Publish a message encoded before (the loop's prepared tick)."""
         try:
             self.sock.send_multipart((topic, payload), flags=zmq.DONTWAIT, copy=True)
             self.sent += 1
         except zmq.Again:
             self.dropped += 1
-        return payload
 
     def warm(self, topic: bytes, message: Mapping[str, Any]) -> None:
         """Encode and send `message` to no one: brings the send path's code
         and data into the caches before a deadline; counts nothing."""
-        payload = protocol.encode(message)
+        self.warm_payload(topic, protocol.encode(message))
+
+    def warm_payload(self, topic: bytes, payload: bytes) -> None:
+        """Send an encoded message to no one (`warm` without the encoding)."""
         with contextlib.suppress(zmq.Again):  # a PUB drops rather than blocks; in case
             self._void.send_multipart((topic, payload), flags=zmq.DONTWAIT, copy=True)
 
@@ -129,11 +139,18 @@ class Recorder:
         protocol.encode(message)
         self.warmed += 1
 
+    def warm_payload(self, topic: bytes, payload: bytes) -> None:
+        self.warmed += 1
+
     def send(self, topic: bytes, message: Mapping[str, Any]) -> bytes:
         payload = protocol.encode(message)
+        self.send_payload(topic, payload)
+        return payload
+
+    def send_payload(self, topic: bytes, payload: bytes) -> None:
+        """Keep a payload encoded before: the ZeroMQ publisher's send_payload."""
         self.messages.append((topic, payload))
         self.sent += 1
-        return payload
 
     def wait_subscribers(self, n: int, timeout: float) -> int:
         return n

@@ -54,6 +54,7 @@ from stiction.daemon.device_set import DeviceSet, Opener
 from stiction.daemon.devices import DeviceSlot, open_source, take_live, take_virtual
 from stiction.daemon.ops import OpTable
 from stiction.daemon.options import Options, validate
+from stiction.daemon.prepare import Prepared, Preparer
 from stiction.daemon.publisher import Publisher, Sink
 from stiction.daemon.scene_state import SceneState
 from stiction.daemon.security import Guard
@@ -118,6 +119,12 @@ class Daemon:
         self.on_tick: Callable[[int], None] | None = None
         """Test hook: called after each published tick with its number."""
         self.warm_spin = True  # run the tick's paths on scratch state in the spin (warm.py)
+        self.prepare_spin = True
+        """Compute each live tick during the spin and send it as computed at the
+        deadline if nothing changed in between (prepare.py)."""
+        self.preparer: Preparer | None = None
+        """The running loop's (None before run, under the virtual clock, or
+        with prepare_spin off); the stats reply reads its counts."""
 
     # ------------------------------------------------------------ the parts' state
     # The loop, the op table and tests read these as the daemon's own; each
@@ -279,7 +286,19 @@ class Daemon:
             self.schedule = Schedule(self.opts.rate, start, _ms(self.opts.late_threshold_ms))
         limit = None if self.opts.seconds is None else round(self.opts.seconds * self.opts.rate)
         prev_t = -math.inf
-        warm = Warmer(self, 1.0 / self.opts.rate).warm if self.warm_spin else None
+        warmer = Warmer(self, 1.0 / self.opts.rate) if self.warm_spin else None
+        # A virtual tick takes its samples from a finite source (take_virtual):
+        # there is no spin and nothing to prepare.
+        if self.prepare_spin and not self.virtual:
+            self.preparer = Preparer(self, warmer)
+        spin = (
+            self.preparer.prepare
+            if self.preparer is not None
+            else warmer.warm
+            if warmer is not None
+            else None
+        )
+        watch = self.preparer.watch if self.preparer is not None else None
         while not self._stop.is_set():
             if limit is not None and self.schedule.index >= limit:
                 break
@@ -289,22 +308,27 @@ class Daemon:
             if self._may_idle() and self._idle(limit):
                 continue
             deadline = self.schedule.deadline
-            self.clock.sleep_until(deadline, warm)
+            self.clock.sleep_until(deadline, spin, watch)
             woke = self.clock.now()
             cpu = time.thread_time()
             lateness = self.schedule.begin(woke)
-            if not self.virtual:
-                self.jitter.add(lateness)
+            # A preparation that ran past the deadline (clock.RealClock.overrun):
+            # the tick's own work, which the statistics count as such.
+            overrun = getattr(self.clock, "overrun", 0.0)
             if self._reload.is_set():
                 self._reload.clear()
                 self._start_reload()
-            self._adopt()
+            hotplug = self.device_set.hotplug
+            if hotplug is not None and not hotplug.ready.empty():
+                self._adopt()
             self._tick(deadline, prev_t)
             prev_t = deadline
             done = self.clock.now()
             if not self.virtual:
-                self.cost.add(done - woke)
-                self.cost_cpu.add(time.thread_time() - cpu)
+                self.jitter.add(lateness - overrun)
+                self.cost.add(done - woke + overrun)
+                over_cpu = getattr(self.clock, "overrun_cpu", 0.0)
+                self.cost_cpu.add(time.thread_time() - cpu + over_cpu)
             self.schedule.finish(done)
             if self.on_tick is not None:
                 self.on_tick(self.last_tick)
@@ -363,10 +387,16 @@ class Daemon:
         pub = self.publisher
         assert pub is not None
         tick = self.schedule.ticks
+        preparer = self.preparer
         for slot in self.slots:
             run = slot.run
             if run is None:
                 continue
+            if preparer is not None:
+                p = preparer.claim(slot, tick, t, prev_t)
+                if p is not None:
+                    self._send_prepared(slot, p, tick, t)
+                    continue
             newest: float | None = None
             if self.virtual:
                 samples = take_virtual(slot, t)
@@ -425,6 +455,24 @@ class Daemon:
                 log.info("device_stopped device=%s state=%s", slot.name, slot.state)
         self.last_tick = tick
         self.last_tick_t = t
+
+    def _send_prepared(self, slot: DeviceSlot, p: Prepared, tick: int, t: float) -> None:
+        """The tick for `slot` as prepared before the deadline (prepare.py):
+        what the ordinary tick below does for a device that is not finished."""
+        pub: Any = self.publisher
+        if p.payload is not None:
+            pub.send_payload(p.topic, p.payload)  # first: the rest is bookkeeping
+        else:
+            pub.send(p.topic, p.frame)
+        p.commit(slot)
+        taken = p.taken
+        if taken.samples:
+            slot.meter.add(len(taken.samples), t)
+        slot.quiet = p.quiet
+        self.last_frames[slot.name] = p.frame
+        slot.sent_tick = tick
+        if taken.newest is not None:
+            self.latency.add(time.monotonic() - taken.newest)
 
     def _keep_last_material(self, name: str, current: list[Any], ended: list[Any]) -> None:
         """Give each closing "up" the material (and string) its contact last had.

@@ -18,6 +18,7 @@ from stiction.daemon.control import ControlServer
 from stiction.daemon.device_set import mapping_config
 from stiction.daemon.devices import DeviceSlot
 from stiction.daemon.options import Options
+from stiction.daemon.prepare import Preparer
 from stiction.daemon.publisher import Sink
 from stiction.daemon.stats import Window
 from stiction.daemon.wake import Waker
@@ -58,6 +59,8 @@ class Observed(Protocol):
     @property
     def counters(self) -> dict[str, int]: ...
     @property
+    def preparer(self) -> Preparer | None: ...
+    @property
     def pipeline(self) -> Pipeline: ...
     @property
     def defaults(self) -> dict[str, Any]: ...
@@ -89,6 +92,7 @@ def stats(d: Observed) -> protocol.StatsWire:
         devices[slot.name] = device
     control = d.control
     schedule = d.schedule
+    prep = d.preparer
     return {
         "uptime_s": round(time.monotonic() - d.started, 3),
         "rate": d.opts.rate,
@@ -104,6 +108,9 @@ def stats(d: Observed) -> protocol.StatsWire:
         "latency_ms": summary(d.latency),
         "tick_cost_ms": summary(d.cost),
         "tick_cpu_ms": summary(d.cost_cpu),
+        "prepared_hits": prep.hits if prep else 0,
+        "prepared_misses": prep.misses if prep else 0,
+        "unprepared": prep.unprepared if prep else 0,
         "published": pub.sent if pub else 0,
         "publish_dropped": pub.dropped if pub else 0,
         "control_requests": control.requests if control else 0,

@@ -70,26 +70,26 @@ class Warmer:
         self.passes = 0
         self.enabled = True
 
-    def warm(self, t: float) -> None:
-        """One pass over every open device for the tick at `t` (the previous
-        tick taken as a period before); never raises.
+    def warm(self, t: float, slots: list[DeviceSlot] | None = None) -> None:
+        """One pass over every open device (or those of `slots`) for the tick
+        at `t` (the previous tick taken as a period before); never raises.
 
         A failure (a bug: scratch state is ours alone) turns warming off for
         good and is logged once; the loop goes on without it."""
         if not self.enabled:
             return
         try:
-            self._warm(t, t - self.period)
+            self._warm(t, t - self.period, self.daemon.slots if slots is None else slots)
             self.passes += 1
         except Exception:
             self.enabled = False
             log.exception("warm_failed (the loop goes on without warming)")
 
-    def _warm(self, t: float, prev_t: float) -> None:
+    def _warm(self, t: float, prev_t: float, slots: list[DeviceSlot]) -> None:
         d = self.daemon
         pipeline = d.pipeline
         send = getattr(d.publisher, "warm", None)
-        for slot in d.slots:
+        for slot in slots:
             run = slot.run
             if run is None:
                 continue
