@@ -100,6 +100,51 @@ def test_set_params_refuses_numbers_out_of_range_and_keeps_going(running: Any, v
     assert request(ctx, ctl, protocol.make_request("snapshot"))["ok"]
 
 
+@pytest.mark.parametrize(
+    ("path", "words"),
+    [
+        ("scene\x00.toml", "NUL byte"),  # os.open raised ValueError: an "internal error"
+        ("s" * 100_000, "(100000 characters)"),  # the reply and the log repeated all of it
+        ("", "empty"),  # Path("") is ".", so the reply spoke of a directory nobody named
+    ],
+)
+def test_set_scene_with_an_impossible_path_is_one_short_error(
+    running: Any, path: str, words: str
+) -> None:
+    d, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_scene", path=path))
+    assert reply["ok"] is False and words in reply["error"], reply
+    assert not reply["error"].startswith("internal error")
+    assert len(reply["error"]) < 400
+    assert d.control.errors == 1
+    assert _scene_name(ctx, ctl) == "default"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [{"m" * 100_000: 1.0}, {"k": "9" * 100_000}, {"k": 1.0, "material": "m" * 100_000}],
+)
+def test_set_params_with_huge_names_or_values_is_one_short_error(
+    running: Any, args: dict[str, Any]
+) -> None:
+    d, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_params", **args))
+    assert reply["ok"] is False and "characters)" in reply["error"], reply["error"][:200]
+    assert len(reply["error"]) < 400
+    assert d.control.errors == 1
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="protocol.parse_request repeats the whole unknown op in its error (owned elsewhere)",
+)
+def test_an_unknown_op_of_a_megabyte_is_not_repeated_whole(running: Any) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.encode({"v": protocol.SCHEMA_VERSION, "op": "x" * 500_000}))
+    assert reply["ok"] is False and "unknown op" in reply["error"]
+    assert len(reply["error"]) < 1000
+
+
 def test_an_oversized_request_gets_a_reply_naming_the_limit(running: Any) -> None:
     d, ctx, ctl = running
     payload = protocol.make_request("set_scene", toml="#" * (2 * protocol.MAX_MESSAGE_BYTES))
