@@ -64,6 +64,55 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+MAX_SECONDS = 1e9
+"""Any duration a flag or config key gives: some 31 years, longer than any run,
+and still a number that poll() (milliseconds in a C long) and thread waits
+accept; 1e300 s made ZeroMQ's poll raise OverflowError."""
+
+MAX_HWM = 2**31 - 1
+"""A ZeroMQ high-water mark is a C int; a larger one made setsockopt raise."""
+
+
+def hwm(text: str) -> int:
+    """A ZeroMQ high-water mark: a whole number from 1 to MAX_HWM."""
+    value = positive_int(text)
+    if value > MAX_HWM:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_HWM}, got {value}")
+    return value
+
+
+def seconds(text: str) -> float:
+    """A duration in seconds: finite, > 0, at most MAX_SECONDS."""
+    value = positive_float(text)
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SECONDS:g} seconds, got {text}")
+    return value
+
+
+def seconds_or_zero(text: str) -> float:
+    """A duration in seconds where 0 has a documented meaning: finite, 0 to MAX_SECONDS."""
+    value = non_negative_float(text)
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SECONDS:g} seconds, got {text}")
+    return value
+
+
+MAX_FACTOR = 1e6
+"""A pace factor (`--speed`) from 1/MAX_FACTOR to MAX_FACTOR: a million times
+slower still replays an hour's pause as a wait poll() can hold; 1e-300 raised
+OverflowError there."""
+
+
+def factor(text: str) -> float:
+    """A pace factor: finite, from 1/MAX_FACTOR to MAX_FACTOR."""
+    value = positive_float(text)
+    if not 1 / MAX_FACTOR <= value <= MAX_FACTOR:
+        raise argparse.ArgumentTypeError(
+            f"must be from {1 / MAX_FACTOR:g} to {MAX_FACTOR:g}, got {text}"
+        )
+    return value
+
+
 SIZE_MM_FLAG = "--size-mm WxH (e.g. --size-mm 254x158.8)"
 """How a command line that reads a device gives its size: in millimetres, the unit in the flag."""
 

@@ -54,3 +54,23 @@ def test_booleans_are_not_numbers() -> None:
     assert problem("realtime", True) is not None
     assert problem("hwm", True) is not None
     assert problem("spin_ms", 0) is None
+
+
+@pytest.mark.parametrize(
+    ("table", "name", "value", "limit"),
+    [
+        ("daemon", "hwm", 2**31, "2147483647"),  # reached setsockopt: OverflowError, a hung daemon
+        ("daemon", "keepalive", 1e300, "1e+09"),
+        ("sim", "substeps", 10**8, "10000"),  # minutes per tick
+    ],
+)
+def test_values_too_large_to_use_are_refused_with_the_limit(
+    table: str, name: str, value: float, limit: str, tmp_path: Path
+) -> None:
+    wrong = problem(name, value)
+    assert wrong is not None and limit in wrong
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f"[{table}]\n{name} = {value!r}\n")
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value) == f"{cfg}:2: {table}.{name}: {wrong}"

@@ -11,6 +11,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from stiction.argtypes import endpoint, port
+
 DEFAULT_PORT = 8766
 
 
@@ -158,11 +160,18 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     study_arg(r)
     r.add_argument("--participant", required=True, metavar="ID", help="participant ID")
     r.add_argument("--out", metavar="DIR", help="data folder (default experiment-data/STUDY)")
-    r.add_argument("--pub", default=protocol.DEFAULT_PUB, help="daemon publisher endpoint")
-    r.add_argument("--control", default=protocol.DEFAULT_CONTROL, help="daemon control endpoint")
+    r.add_argument(
+        "--pub", type=endpoint, default=protocol.DEFAULT_PUB, help="daemon publisher endpoint"
+    )
+    r.add_argument(
+        "--control",
+        type=endpoint,
+        default=protocol.DEFAULT_CONTROL,
+        help="daemon control endpoint",
+    )
     r.add_argument("--device", help="the device to follow (default: the first one)")
     r.add_argument("--host", default="127.0.0.1", help="page address (default loopback)")
-    r.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"page port ({DEFAULT_PORT})")
+    r.add_argument("--port", type=port, default=DEFAULT_PORT, help=f"page port ({DEFAULT_PORT})")
     r.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     r.set_defaults(func=_run)
 

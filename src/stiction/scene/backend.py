@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from stiction.errors import ParamError
 from stiction.scene.pipeline import ContactModel
 from stiction.sim.contact import ContactSim
-from stiction.sim.integrators import INTEGRATORS
+from stiction.sim.integrators import INTEGRATORS, check_substeps
 from stiction.sim.params import Params
 
 if TYPE_CHECKING:
@@ -31,10 +31,8 @@ class SimulatorBackend:
     def __init__(self, integrator: str = "default", substeps: int = 1) -> None:
         if integrator not in INTEGRATORS:
             raise ParamError(f"unknown integrator {integrator!r}; known: {', '.join(INTEGRATORS)}")
-        if substeps < 1:
-            raise ParamError(f"substeps must be at least 1, got {substeps}")
         self.integrator = integrator
-        self.substeps = substeps
+        self.substeps = check_substeps(substeps)
 
     def defaults(self) -> dict[str, float]:
         """The simulator's own default parameters (docs/design/model.md's table)."""
