@@ -13,6 +13,15 @@ import tempfile
 from pathlib import Path
 
 from stiction.errors import StictionError
+from stiction.userfiles import read_regular_text, shown
+
+MAX_KEY_FILE_BYTES = 64 << 10
+"""A zmq.auth certificate is a few hundred bytes; anything far larger is not one."""
+
+_Z85 = frozenset(
+    "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ.-:+=^!/*?&<>()[]{}@%$#"
+)
+"""The Z85 alphabet (ZeroMQ RFC 32), in which a 32-byte CURVE key is 40 characters."""
 
 
 class KeyFileError(StictionError):
@@ -31,6 +40,38 @@ def check_private(path: str | Path) -> None:
             f"{p} can be read by other users (mode {stat.S_IMODE(mode):04o}); a secret key "
             f"must be private: run `chmod 600 {p}`"
         )
+
+
+def load_certificate(path: str | Path, *, secret: bool) -> tuple[bytes, bytes | None]:
+    """(public, secret) from a zmq.auth key file, or one KeyFileError saying what is wrong.
+
+    zmq.auth.load_certificate opens whatever it is given (a FIFO blocks it
+    forever) and returns keys unchecked, so a damaged key surfaced later as
+    a bare ZMQError from setsockopt. Here the file must be a small regular
+    file and each key 40 Z85 characters; with `secret`, it must hold a
+    secret key that only its owner can read.
+    """
+    import zmq.auth
+
+    p = Path(path)
+    read_regular_text(p, MAX_KEY_FILE_BYTES, KeyFileError, "CURVE key file")
+    try:
+        public, secret_key = zmq.auth.load_certificate(str(p))
+    except (OSError, ValueError) as exc:
+        raise KeyFileError(
+            f"{shown(p)}: not a CURVE key file ({exc}); `stiction keys DIR NAME` makes a pair"
+        ) from None
+    for what, key in (("public", public), ("secret", secret_key)):
+        if key is not None and (len(key) != 40 or not set(key.decode("latin-1")) <= _Z85):
+            raise KeyFileError(
+                f"{shown(p)}: its {what} key is not 40 Z85 characters; the file is damaged "
+                "(`stiction keys DIR NAME` makes a new pair)"
+            )
+    if secret:
+        if not secret_key:
+            raise KeyFileError(f"{shown(p)} holds no secret key (give the .key_secret file)")
+        check_private(p)
+    return public, secret_key
 
 
 def write_keypair(directory: Path, name: str, force: bool = False) -> tuple[Path, Path]:
