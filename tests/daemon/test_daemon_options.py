@@ -74,3 +74,24 @@ def test_values_too_large_to_use_are_refused_with_the_limit(
     with pytest.raises(ConfigError) as caught:
         load_options(cfg)
     assert str(caught.value) == f"{cfg}:2: {table}.{name}: {wrong}"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        # each was refused only later, by the simulator, without file or line (or not at all)
+        ('[sim]\nintegrator = "rk5"\n', ":2: sim.integrator: unknown integrator 'rk5'"),
+        ("[sim]\nmu_s = 1e300\n", ":2: sim.mu_s: must be at most 100"),
+        ("[sim]\nm = 1e308\n", ":2: sim.m: must be at most 1e+09"),
+        ("[sim]\nk = 1e-300\n", ":2: sim.k: parameters k=1e-300"),
+        ("[sim]\nmu_k = -1\n", ":2: sim.mu_k: parameter mu_k must be >= 0"),
+    ],
+)
+def test_sim_defaults_are_checked_where_they_are_written(
+    text: str, message: str, tmp_path: Path
+) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value).startswith(f"{cfg}{message}")

@@ -17,7 +17,10 @@ from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, s
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
-from stiction.errors import StictionError
+from stiction.errors import ParamError, StictionError
+from stiction.scene.load import MAX_FRICTION, MAX_NUMBER
+from stiction.sim.integrators import INTEGRATORS
+from stiction.sim.params import Params
 from stiction.tomlcheck import FieldPath, TomlReader
 from stiction.userfiles import read_regular_text
 
@@ -127,6 +130,11 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     s = r.table(data.get("sim", {}), ("sim",), _SIM_KEYS)
     if "integrator" in s:
         opts.integrator = r.string(s["integrator"], ("sim", "integrator"))
+        if opts.integrator not in INTEGRATORS:  # else refused later, without file and line
+            r.fail(
+                ("sim", "integrator"),
+                f"unknown integrator {opts.integrator!r}; known: {', '.join(INTEGRATORS)}",
+            )
     if "substeps" in s:
         wrong = problem("substeps", s["substeps"])
         if wrong is not None:
@@ -137,6 +145,17 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         for k, v in s.items()
         if k not in ("integrator", "substeps")
     }
+    # The bounds a scene file and set_params have, and the simulator's own
+    # check, here too: else a bad default is refused later without its line.
+    for k, v in opts.params.items():
+        limit = MAX_FRICTION if k in ("mu_s", "mu_k") else MAX_NUMBER
+        if abs(v) > limit:
+            r.fail(("sim", k), f"must be at most {limit:g}, got {v:g}")
+    try:
+        Params.from_mapping(opts.params)
+    except ParamError as exc:
+        one = len(opts.params) == 1  # then the parameter at fault is known
+        r.fail(("sim", next(iter(opts.params))) if one else ("sim",), str(exc))
 
     c = r.table(data.get("curve", {}), ("curve",), _CURVE_KEYS)
     required = c.get("required", False)
