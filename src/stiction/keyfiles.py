@@ -8,6 +8,7 @@ to use one whose mode gives group or others any access, and names the fix.
 from __future__ import annotations
 
 import os
+import re
 import stat
 import tempfile
 from pathlib import Path
@@ -17,6 +18,11 @@ from stiction.userfiles import read_regular_text, shown
 
 MAX_KEY_FILE_BYTES = 64 << 10
 """A zmq.auth certificate is a few hundred bytes; anything far larger is not one."""
+
+_NAME = re.compile(r"[A-Za-z0-9_\-][A-Za-z0-9_.\-]{0,63}")
+"""A key pair's name: a plain file name. An empty name wrote the hidden files
+.key and .key_secret; one with '/' wrote elsewhere or failed with a confusing
+'cannot write keys to DIR'."""
 
 _Z85 = frozenset(
     "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ.-:+=^!/*?&<>()[]{}@%$#"
@@ -83,6 +89,11 @@ def write_keypair(directory: Path, name: str, force: bool = False) -> tuple[Path
     """
     import zmq.auth
 
+    if not _NAME.fullmatch(name):
+        raise KeyFileError(
+            f"key name {shown(repr(name))}: use 1-64 letters, digits, '-', '_' or '.', not "
+            "starting with '.' (it names the files NAME.key and NAME.key_secret in DIR)"
+        )
     public = directory / f"{name}.key"
     secret = directory / f"{name}.key_secret"
     if not force:

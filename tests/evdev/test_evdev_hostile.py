@@ -58,6 +58,15 @@ def test_backwards_time_is_refused_with_its_line(evdev_data: Path, tmp_path: Pat
         load(path)
 
 
+def test_a_megabyte_line_is_not_repeated_whole_in_the_error(tmp_path: Path) -> None:
+    path = tmp_path / "long.evemu"
+    path.write_text("Q" * 1_000_000 + "\n")  # was quoted whole: a 1 MB error message
+    with pytest.raises(RecordingError) as caught:
+        load(path)
+    assert str(caught.value).startswith(f"{path}:1: unknown line type")
+    assert len(str(caught.value)) < 500
+
+
 def test_libinput_record_aliases_are_refused_before_expansion(tmp_path: Path) -> None:
     bomb = ["version: 1", "a: &a [x, x, x, x, x, x, x, x, x, x]"]
     for i in range(1, 12):
