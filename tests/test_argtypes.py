@@ -92,7 +92,17 @@ def test_stiction_flags(
 
 
 @pytest.mark.parametrize(
-    "good", ["tcp://127.0.0.1:5555", "tcp://*:*", "tcp://[::1]:80", "ipc:///tmp/x", "inproc://a"]
+    "good",
+    [
+        "tcp://127.0.0.1:5555",
+        "tcp://*:*",
+        "tcp://[::1]:80",
+        "tcp://[fe80::1%eth0]:80",
+        "tcp://eth0:5556",
+        "tcp://tablet-pc:5556",
+        "ipc:///tmp/x",
+        "inproc://a",
+    ],
 )
 def test_good_endpoints_pass(good: str) -> None:
     assert daemon_main.build_parser().parse_args(["--pub", good]).pub == good
@@ -108,3 +118,22 @@ def test_config_endpoint_names_its_key(tmp_path: pytest.TempPathFactory) -> None
     path.write_text('[daemon]\npub = "tcp://127.0.0.1:99999"\n')
     with pytest.raises(StictionError, match=r"daemon\.pub.*out of range"):
         load_options(path)
+
+
+@pytest.mark.parametrize(
+    ("bad", "words"),
+    [
+        # libzmq took these and retried the connect forever: `listen` just waited
+        ("tcp://[::1:5556", "not an IPv6 address in brackets"),
+        ("tcp://1.2.3.4.5:1", "not an IPv4 address"),
+        ("tcp://256.0.0.1:1", "not an IPv4 address"),
+        ("tcp://::1:5556", "in brackets"),
+        ("tcp://my host:5556", "not a host name"),
+    ],
+)
+def test_malformed_hosts_are_refused(
+    bad: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        cli.build_parser().parse_args(["listen", bad])
+    assert words in capsys.readouterr().err

@@ -9,7 +9,9 @@ it. Kept free of heavy imports: argument errors must not load zmq or numpy.
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import math
+import re
 from collections.abc import Callable
 
 SCHEMES = ("tcp", "ipc", "inproc", "ws", "wss")
@@ -174,6 +176,37 @@ def port(text: str) -> int:
     return value
 
 
+_HOSTNAME = re.compile(r"[A-Za-z0-9_](?:[A-Za-z0-9_.\-]{0,252})")
+"""A host or interface name (tablet-pc, localhost, eth0) as libzmq resolves it."""
+
+
+def _check_host(text: str, host: str) -> None:
+    """Refuse a host libzmq would take and fail on later, or never reach.
+
+    `tcp://[::1:5556` and `tcp://1.2.3.4.5:1` passed before: a connect to
+    them is silently retried forever, so `stiction listen` just waited.
+    """
+    if host == "*":
+        return
+    if host.startswith("[") or host.endswith("]"):
+        inner = host[1:-1] if host.startswith("[") and host.endswith("]") else None
+        try:
+            ipaddress.IPv6Address(inner.split("%", 1)[0] if inner else "")
+        except ValueError:
+            raise ValueError(f"{text!r}: {host!r} is not an IPv6 address in brackets") from None
+        return
+    if ":" in host:
+        raise ValueError(f"{text!r}: write an IPv6 address in brackets, e.g. tcp://[::1]:5556")
+    if all(c.isdigit() or c == "." for c in host):
+        try:
+            ipaddress.IPv4Address(host)
+        except ValueError:
+            raise ValueError(f"{text!r}: {host!r} is not an IPv4 address") from None
+        return
+    if not _HOSTNAME.fullmatch(host):
+        raise ValueError(f"{text!r}: {host!r} is not a host name, an address or *")
+
+
 def check_endpoint(text: str) -> str:
     """Return the ZeroMQ endpoint `text`, or raise ValueError saying what is wrong with it.
 
@@ -193,6 +226,7 @@ def check_endpoint(text: str) -> str:
         host, colon, porttext = hostport.rpartition(":")
         if not colon or not host:
             raise ValueError(f"{text!r} needs HOST:PORT after {scheme}://")
+        _check_host(text, host)
         if porttext != "*":
             try:
                 value = int(porttext)
