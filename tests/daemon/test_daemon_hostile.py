@@ -134,6 +134,56 @@ def test_set_params_with_huge_names_or_values_is_one_short_error(
     assert d.control.errors == 1
 
 
+@pytest.mark.parametrize(
+    "request_args",
+    [
+        {"op": "set_params", "k": 1e4},
+        {"op": "set_params", "k": 1e4, "material": "standard"},
+        {"op": "set_scene", "toml": GOOD + "k = 1e4\n"},
+    ],
+)
+def test_a_change_the_integrator_cannot_step_is_refused_and_the_loop_keeps_ticking(
+    endpoints: tuple[str, str], request_args: dict[str, Any]
+) -> None:
+    """explicit-euler with k = 1e4 was accepted (ok: true) and then failed every tick."""
+    gate = threading.Event()
+    d = make_daemon(
+        endpoints,
+        {"pen": ListSource(stroke(n=50), gate=gate)},
+        integrator="explicit-euler",
+    )
+    ctx, ctl = zmq.Context.instance(), endpoints[1]
+    with Runner(d):
+        args = dict(request_args)
+        reply = request(ctx, ctl, protocol.make_request(args.pop("op"), **args))
+        assert reply["ok"] is False and "explicit-euler is unstable" in reply["error"]
+        assert _scene_name(ctx, ctl) == "default"
+        params = request(ctx, ctl, protocol.make_request("get_params"))["params"]
+        assert params["k"] == 0.1
+        assert d.control is not None and d.control.errors == 1
+        gate.set()  # the pen draws on the scene that was kept: every tick steps cleanly
+        for _ in range(2000):
+            pen = request(ctx, ctl, protocol.make_request("stats"))["stats"]["devices"]["test-pen"]
+            if pen["samples"] >= 50:
+                break
+        assert pen["samples"] >= 50 and pen["errors"] == 0, pen
+
+
+def test_stictiond_with_a_scene_its_integrator_cannot_step_exits_2(tmp_path: Path) -> None:
+    scene = tmp_path / "stiff.toml"
+    scene.write_text(GOOD + "k = 1e4\n")
+    argv = ["--scene", str(scene), "--integrator", "explicit-euler", "--device", "synthetic:demo"]
+    argv += ["--pub", f"ipc://{tmp_path}/p", "--control", f"ipc://{tmp_path}/c"]
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.daemon.main", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "explicit-euler is unstable" in done.stderr and "Traceback" not in done.stderr
+
+
 @pytest.mark.xfail(
     strict=True,
     reason="protocol.parse_request repeats the whole unknown op in its error (owned elsewhere)",

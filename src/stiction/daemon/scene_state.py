@@ -64,7 +64,7 @@ class SceneState:
             "rate": opts.rate,
         }
         scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
-        self.pipeline = Pipeline(scene, self.backend, self.defaults)
+        self.pipeline = self._checked(Pipeline(scene, self.backend, self.defaults))
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
         self.generation = 0
         """Counts pipeline swaps (a change prepared against an older pipeline is redone)."""
@@ -84,8 +84,8 @@ class SceneState:
         number. A refused scene is counted and leaves the running one untouched.
         """
         try:
-            pipeline = Pipeline(
-                scene, self.backend, self.defaults if defaults is None else defaults
+            pipeline = self._checked(
+                Pipeline(scene, self.backend, self.defaults if defaults is None else defaults)
             )
             wire = pipeline.wire()
             protocol.encode(protocol.scene_message(wire, max(self._last_tick(), 0)))
@@ -94,6 +94,14 @@ class SceneState:
             if count:
                 self.counters["scene_errors"] += 1
             raise
+        return pipeline
+
+    def _checked(self, pipeline: Pipeline) -> Pipeline:
+        """`pipeline`, once every material's parameters suit the integrator (else ParamError):
+        an explicit integrator with a stiff material (set_params k=1e4) was swapped in
+        and then failed every tick."""
+        for params in (*pipeline.params.values(), *pipeline.frictionless.values()):
+            self.backend.check(params)
         return pipeline
 
     def load_scene_text(self, text: str, source: str) -> Scene:

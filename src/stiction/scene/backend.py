@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from stiction.errors import ParamError
 from stiction.scene.pipeline import ContactModel
 from stiction.sim.contact import ContactSim
-from stiction.sim.integrators import INTEGRATORS, check_substeps
+from stiction.sim.integrators import INTEGRATORS, check_substeps, checked_params
 from stiction.sim.params import Params
 
 if TYPE_CHECKING:
@@ -41,6 +41,15 @@ class SimulatorBackend:
 
     def params(self, values: Mapping[str, float]) -> Params:
         return Params.from_mapping({k: v for k, v in values.items() if k in PARAM_NAMES})
+
+    def check(self, params: Params) -> None:
+        """Refuse `params` this backend's integrator cannot step stably.
+
+        The row stepper checks each material only when a pipeline first ticks;
+        a scene or set_params checked here is refused before it is swapped in,
+        instead of failing every tick after.
+        """
+        checked_params(self.integrator, params, self.substeps)
 
     def rows(self) -> RowStepper:
         """The row stepper for the pipeline's batch step (numpy and numba: loaded on use)."""
