@@ -21,7 +21,7 @@ from typing import Any
 import pytest
 import zmq
 from daemon_support import ListSource, Runner, make_daemon, request, stroke
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stiction import protocol
@@ -342,3 +342,46 @@ def test_any_device_table_overlay_is_a_table_or_one_device_error(text: str) -> N
 
     with contextlib.suppress(DeviceError):
         parse_table(text, "overlay.toml")
+
+
+_ANY_VALUE = st.recursive(
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(-(2**63), 2**64 - 1),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.text(max_size=40),
+        st.binary(max_size=40),
+        st.sampled_from(["", "a\x00b", ".", "/dev/zero", "/proc/self/mem", "-1e999"]),
+    ),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=8,
+)
+_ARG_NAMES = ["mu_s", "mu_k", "k", "m", "g", "C_l", "rate", "material", "toml", "path", "x"]
+
+
+@pytest.fixture
+def idle_daemon(endpoints: tuple[str, str]):  # type: ignore[no-untyped-def]
+    """An opened daemon whose loop does not run: requests go through its handler directly."""
+    d = make_daemon(endpoints, {"pen": ListSource(stroke())})
+    yield d
+    d.close()
+
+
+@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    op=st.sampled_from([*protocol.CONTROL_OPS, "nope"]),
+    args=st.dictionaries(st.sampled_from(_ARG_NAMES), _ANY_VALUE, max_size=4),
+)
+def test_any_request_is_answered_in_words_and_leaves_a_working_scene(
+    idle_daemon: Any, op: str, args: dict[str, Any]
+) -> None:
+    """Each request goes through the daemon's own handler (parse, prepare, apply); none may
+    escape as an 'internal error', and whatever is in force afterwards still encodes."""
+    d = idle_daemon
+    assert d.control is not None
+    reply = protocol.decode(d.control.handle(protocol.encode({"v": 1, "op": op, **args})))
+    assert reply["ok"] is True or not str(reply["error"]).startswith("internal error"), reply
+    protocol.encode(protocol.scene_message(d.scene_state.pipeline.wire(), 0))
