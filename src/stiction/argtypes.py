@@ -50,6 +50,11 @@ def non_negative_int(text: str) -> int:
     return value
 
 
+def finite_float(text: str) -> float:
+    """Any finite number (a position, an offset): NaN and infinities are refused."""
+    return _float(text)
+
+
 def positive_float(text: str) -> float:
     """A finite number > 0 (seconds, rates, factors)."""
     value = _float(text)

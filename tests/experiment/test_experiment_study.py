@@ -142,3 +142,14 @@ def test_a_study_nested_thousands_deep_is_one_error(
     assert main(["experiment", "check", str(deep)]) == 2
     err = capsys.readouterr().err
     assert "nested too deeply" in err and "Traceback" not in err
+
+
+def test_repetitions_from_the_command_line_have_the_files_bound(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """--repetitions bypassed MAX_TRIALS: a study of 1.2e12 trials was 'checked' fine."""
+    assert main(["experiment", "check", "paper-study1", "--repetitions", "99999999999"]) == 2
+    assert "at most 10000" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # an argument error: argparse exits 2 itself
+        main(["experiment", "simulate", "paper-study1", "--participants", "99999", "--out", "x"])
+    assert "argument --participants: must be 1 to 1000" in capsys.readouterr().err

@@ -11,9 +11,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import endpoint, port
+from stiction.argtypes import endpoint, int_range, port
 
 DEFAULT_PORT = 8766
+
+MAX_SIMULATED = 1000
+"""Simulated participants in one run: each takes about 10 s on paper-study1
+(`stiction experiment simulate paper-study1 --participants 2`: 19 s), so this
+is some three hours; 1e11 was a run that never ends."""
 
 
 def _study(args: argparse.Namespace) -> Any:
@@ -182,7 +187,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "stictiond (virtual clock) and answers like a person; writes the files of `run`.",
     )
     study_arg(s)
-    s.add_argument("--participants", type=_positive_int, required=True, metavar="N")
+    s.add_argument("--participants", type=int_range(1, MAX_SIMULATED), required=True, metavar="N")
     s.add_argument("--out", required=True, metavar="DIR", help="data folder")
     s.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     s.set_defaults(func=_simulate)

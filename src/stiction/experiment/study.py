@@ -70,7 +70,12 @@ class Study:
         """The same study with fewer or more repetitions (quick pilots, tests)."""
         if repetitions < 1:
             raise StudyError(f"repetitions must be at least 1, got {repetitions}")
-        return dataclasses.replace(self, repetitions=repetitions)
+        changed = dataclasses.replace(self, repetitions=repetitions)
+        if changed.n_trials > MAX_TRIALS:  # the bound a study file has, for --repetitions too
+            raise StudyError(
+                f"--repetitions {repetitions}: {changed.n_trials} trials; at most {MAX_TRIALS}"
+            )
+        return changed
 
 
 _SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], bool]]] = {
