@@ -140,3 +140,22 @@ def test_a_billion_second_pause_replays_as_a_short_one_on_the_virtual_clock(
     assert "replayed as" in done.stderr
     ticks = int(done.stderr.rsplit("stopped ticks=", 1)[1].split()[0])
     assert ticks < (1 + MAX_GAP_S) * 100 * 2  # the recording's 0.5 s plus one capped pause
+
+
+def test_a_stiction_recording_or_a_trace_given_as_a_device_recording_is_named(
+    tmp_path: Path,
+) -> None:
+    """stictiond --device replay:FILE read both as evemu: 'unknown line type PK...'."""
+    import numpy as np
+
+    npz = tmp_path / "session.npz"
+    np.savez(npz, frame_tick=np.arange(3))
+    with pytest.raises(RecordingError, match=r"session\.npz is a `stiction record` recording"):
+        load(npz)
+    (tmp_path / "zipped.evemu").write_bytes(npz.read_bytes())  # the content decides too
+    with pytest.raises(RecordingError, match="stiction replay"):
+        load(tmp_path / "zipped.evemu")
+    trace = tmp_path / "trace.evemu"
+    trace.write_text("t,x,y,contact\n0,0,0,1\n")
+    with pytest.raises(RecordingError, match=r"is a trace CSV.*stiction simulate"):
+        load(trace)
