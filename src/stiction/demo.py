@@ -108,8 +108,10 @@ def run_demo(
 
     from stiction.clients.web.errors import PortInUse
 
-    if not scene.is_file():
+    if not scene.exists():
         raise StictionError(f"scene file {scene} not found")
+    if not scene.is_file():  # a directory or a FIFO: stictiond would refuse it, in other words
+        raise StictionError(f"{scene}: not a regular file; a scene must be a file")
     workdir = Path(tempfile.mkdtemp(prefix="stiction-demo-"))
     pub, control = f"ipc://{workdir}/pub", f"ipc://{workdir}/control"
     cmd = [
