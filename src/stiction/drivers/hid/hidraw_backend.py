@@ -15,8 +15,8 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
-import stat
 import re
+import stat
 import threading
 import time
 from collections.abc import Callable, Iterator
