@@ -181,3 +181,21 @@ def test_bad_participant_ids_are_refused(tmp_path: Path) -> None:
     for bad in ("", "../x", "a/b", ".hidden", "x" * 65):
         with pytest.raises(StictionError, match="participant ID"):
             Session(load_study("paper-study1"), bad, tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("data", "words"),
+    [
+        ("[" * 3000 + "]" * 3000, "recursion"),  # fits the 4 KiB frame; the decoder recursed
+        ("[1, 2]", "expected a JSON object"),
+        ("not json", "Expecting value"),
+    ],
+)
+def test_a_page_message_that_is_not_a_press_is_refused_in_words(data: str, words: str) -> None:
+    from typing import Any, cast
+
+    from stiction.experiment.live import LiveRunner
+
+    runner = LiveRunner(cast(Any, None), "ipc:///nonexistent/p", "ipc:///nonexistent/c")
+    refused = runner.press(data)
+    assert refused is not None and words in refused
