@@ -125,15 +125,17 @@ SIZE_MM_FLAG = "--size-mm WxH (e.g. --size-mm 254x158.8)"
 
 
 def size_mm(text: str) -> tuple[float, float]:
-    """`WxH`: an active area in millimetres, both finite and > 0, at most 10 m."""
+    """`WxH`: an active area in millimetres, both finite, from 1 mm to 10 m (a
+    smaller one is a typo that scaled the pointer to 1e304 px)."""
     w, sep, h = text.lower().partition("x")
     try:
         size = (float(w), float(h))
     except ValueError:
         size = (math.nan, math.nan)
-    if not sep or not all(math.isfinite(v) and 0 < v <= 10_000 for v in size):
+    if not sep or not all(math.isfinite(v) and 1 <= v <= 10_000 for v in size):
         raise argparse.ArgumentTypeError(
-            f"expected the active area as WIDTHxHEIGHT in millimetres, e.g. 254x158.8, got {text!r}"
+            "expected the active area as WIDTHxHEIGHT in millimetres (1 to 10000), "
+            f"e.g. 254x158.8, got {text!r}"
         )
     return size
 

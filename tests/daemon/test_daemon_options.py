@@ -95,3 +95,35 @@ def test_sim_defaults_are_checked_where_they_are_written(
     with pytest.raises(ConfigError) as caught:
         load_options(cfg)
     assert str(caught.value).startswith(f"{cfg}{message}")
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        # each was accepted and drew the pointer at 1e298 to 1e304 px
+        ("gain = 1e300", ":3: devices[0].gain: must be at most 1000"),
+        ("screen_area = [0, 0, 1e300, 1e300]", ":3: devices[0].screen_area: must be pixels"),
+        ("surface_area_mm = [0, 0, 1e-300, 1e-300]", ":3: devices[0].surface_area_mm: must be"),
+        ("size_mm = [1e-300, 1e-300]", ":3: devices[0].size_mm: must be [width, height] in mil"),
+        ("surface_size = [20, 0.1]", ":3: devices[0].surface_size: must be [width, height] in me"),
+    ],
+)
+def test_mapping_values_far_outside_any_tablet_or_display_are_refused(
+    entry: str, message: str, tmp_path: Path
+) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f'[[devices]]\nspec = "synthetic:demo"\n{entry}\n')
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value).startswith(f"{cfg}{message}")
+
+
+def test_a_tablet_sized_mapping_still_loads(tmp_path: Path) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        '[[devices]]\nspec = "synthetic:demo"\nsize_mm = [254, 158.8]\n'
+        "surface_area_mm = [10, 10, 100, 50]\nscreen_area = [0, 0, 1920, 1080]\ngain = 2\n"
+    )
+    (device,) = load_options(cfg).devices
+    assert device.surface_size == pytest.approx((0.254, 0.1588))
+    assert device.mapping.gain == 2.0
