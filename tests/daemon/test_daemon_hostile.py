@@ -344,6 +344,19 @@ def test_any_device_table_overlay_is_a_table_or_one_device_error(text: str) -> N
         parse_table(text, "overlay.toml")
 
 
+@pytest.mark.xfail(
+    strict=True,
+    reason="daemon/devices.py (owned elsewhere): _path_problem accepts any character "
+    "device, so /dev/null is taken as a device name and waited for forever",
+)
+@pytest.mark.parametrize("spec", ["/dev/null", "/dev/zero"])
+def test_a_character_device_that_is_not_an_input_node_is_refused_at_start(spec: str) -> None:
+    from stiction.daemon.devices import parse_spec, spec_problem
+
+    problem = spec_problem(parse_spec(spec))
+    assert problem is not None and spec in problem
+
+
 _ANY_VALUE = st.recursive(
     st.one_of(
         st.none(),
