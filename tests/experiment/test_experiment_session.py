@@ -199,3 +199,30 @@ def test_a_page_message_that_is_not_a_press_is_refused_in_words(data: str, words
     runner = LiveRunner(cast(Any, None), "ipc:///nonexistent/p", "ipc:///nonexistent/c")
     refused = runner.press(data)
     assert refused is not None and words in refused
+
+
+def _header() -> bytes:
+    from stiction.experiment.data import COLUMNS
+
+    return (",".join(COLUMNS) + "\n").encode()
+
+
+_HEADER = _header()
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        (b"\xbc\xff\x00\rab\n", "not valid CSV"),  # was a UnicodeDecodeError traceback
+        (_HEADER + b"p01\rx,1\n", "not valid CSV"),  # a stray CR: was a csv.Error traceback
+    ],
+)
+def test_a_damaged_participant_file_is_one_data_error(
+    tmp_path: Path, content: bytes, words: str
+) -> None:
+    from stiction.experiment.data import DataError, completed
+
+    path = tmp_path / "p01.csv"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match=words):
+        completed(path)

@@ -152,4 +152,4 @@ def test_repetitions_from_the_command_line_have_the_files_bound(
     assert "at most 10000" in capsys.readouterr().err
     with pytest.raises(SystemExit):  # an argument error: argparse exits 2 itself
         main(["experiment", "simulate", "paper-study1", "--participants", "99999", "--out", "x"])
-    assert "argument --participants: must be 1 to 1000" in capsys.readouterr().err
+    assert "argument --participants: must be at most 1000" in capsys.readouterr().err

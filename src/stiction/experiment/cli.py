@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import endpoint, int_range, port
+from stiction.argtypes import endpoint, port
 
 DEFAULT_PORT = 8766
 
@@ -37,6 +37,13 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _participants(text: str) -> int:
+    value = _positive_int(text)
+    if value > MAX_SIMULATED:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SIMULATED}, got {value}")
     return value
 
 
@@ -187,7 +194,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "stictiond (virtual clock) and answers like a person; writes the files of `run`.",
     )
     study_arg(s)
-    s.add_argument("--participants", type=int_range(1, MAX_SIMULATED), required=True, metavar="N")
+    s.add_argument("--participants", type=_participants, required=True, metavar="N")
     s.add_argument("--out", required=True, metavar="DIR", help="data folder")
     s.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     s.set_defaults(func=_simulate)
