@@ -95,3 +95,47 @@ def test_any_bytes_are_a_recording_or_one_recording_error(tmp_path: Path, raw: b
     path.write_bytes(raw)
     with contextlib.suppress(RecordingError):
         rec_mod.read(path)
+
+
+@pytest.mark.parametrize(
+    ("meta", "op", "check"),
+    [
+        # the file's params replaced the reply's own v and ok
+        ({"params": {"ok": False, "v": 99, "k": 0.1}}, "get_params", {"ok": True, "k": 0.1}),
+        # an unhashable device name killed the replay with a TypeError
+        ({"devices": [{"name": {"a": 1}}, 5, {"name": "pen", "spec": "x"}]}, "devices", None),
+        # an integer msgpack cannot carry raised out of the control loop
+        ({"params": {"k": 2**70}}, "get_params", {"ok": False}),
+        ({"scene": [1, 2]}, "get_scene", {"ok": False}),
+    ],
+)
+def test_a_recordings_metadata_cannot_break_or_spoof_the_replays_replies(
+    tmp_path: Path, meta: dict[str, object], op: str, check: dict[str, object] | None
+) -> None:
+    import zmq
+
+    from stiction import protocol
+    from stiction.clients.replay import Replayer
+
+    path = tmp_path / "evil.npz"
+    rec_mod.write(path, [], [], meta)
+    ctl = f"ipc://{tmp_path}/ctl"
+    player = Replayer(rec_mod.read(path), f"ipc://{tmp_path}/pub", ctl)
+    ctx = zmq.Context.instance()
+    req = ctx.socket(zmq.REQ)
+    req.linger = 0
+    try:
+        req.connect(ctl)
+        req.send(protocol.make_request(op))
+        for _ in range(100):  # the request is queued: a few polls answer it
+            player.service(0.1)
+            if req.poll(0):
+                break
+        reply = protocol.decode(req.recv(zmq.NOBLOCK))
+    finally:
+        req.close()
+        player.close()
+    if check is None:
+        assert reply["ok"] is True and [d["name"] for d in reply["devices"]] == ["pen"]
+    else:
+        assert {k: reply.get(k) for k in check} == check and reply["v"] == 1
