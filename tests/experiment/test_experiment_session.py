@@ -226,3 +226,14 @@ def test_a_damaged_participant_file_is_one_data_error(
     path.write_bytes(content)
     with pytest.raises(DataError, match=words):
         completed(path)
+
+
+@pytest.mark.parametrize("content", [b"[" * 100_000, b"\xbc\xff", b"[1, 2]"])
+def test_a_damaged_sidecar_is_one_data_error(tmp_path: Path, content: bytes) -> None:
+    """JSON nested 100,000 deep was a RecursionError traceback on resume."""
+    from stiction.experiment.data import DataError, read_sidecar
+
+    path = tmp_path / "p01.json"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match="sidecar"):
+        read_sidecar(path)

@@ -180,8 +180,9 @@ def write_sidecar(path: Path, info: Mapping[str, Any]) -> None:
 
 def read_sidecar(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        text = read_regular_text(path, MAX_TRIALS_BYTES, DataError, "sidecar")
+        data = json.loads(text)
+    except (ValueError, RecursionError) as exc:  # RecursionError: JSON nested thousands deep
         raise DataError(f"{path}: cannot read the sidecar: {exc}") from None
     if not isinstance(data, dict):
         raise DataError(f"{path}: the sidecar is not a JSON object")
