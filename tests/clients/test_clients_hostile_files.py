@@ -139,3 +139,11 @@ def test_a_recordings_metadata_cannot_break_or_spoof_the_replays_replies(
         assert reply["ok"] is True and [d["name"] for d in reply["devices"]] == ["pen"]
     else:
         assert {k: reply.get(k) for k in check} == check and reply["v"] == 1
+
+
+def test_a_recording_whose_meta_is_nested_thousands_deep_is_one_error(tmp_path: Path) -> None:
+    """json.loads raised RecursionError, which no handler expected: a traceback."""
+    path = tmp_path / "deep.npz"
+    np.savez(path, meta=np.asarray("[" * 100_000))
+    with pytest.raises(RecordingError, match="nested too deeply"):
+        rec_mod.read(path)

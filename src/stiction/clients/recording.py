@@ -202,6 +202,10 @@ def _read(fh: BinaryIO, path: Path) -> Recording:
                 f"{shown(path)}: not a stiction recording (it lacks the arrays "
                 f"{', '.join(missing[:3])}{more})"
             ) from None
+        except RecursionError:  # a meta JSON nested past the decoder's limit
+            raise RecordingError(
+                f"{shown(path)}: damaged recording (meta nested too deeply)"
+            ) from None
         except (ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
             raise RecordingError(f"{path}: damaged recording ({exc})") from exc
     n = len(rec.topics)

@@ -402,7 +402,7 @@ def _records(
                 return
         try:
             header = json.loads(head)
-        except ValueError:
+        except (ValueError, RecursionError):  # damaged, or nested past the decoder's limit
             return
         if not isinstance(header, dict):
             return
