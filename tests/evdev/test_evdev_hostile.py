@@ -159,3 +159,12 @@ def test_a_stiction_recording_or_a_trace_given_as_a_device_recording_is_named(
     trace.write_text("t,x,y,contact\n0,0,0,1\n")
     with pytest.raises(RecordingError, match=r"is a trace CSV.*stiction simulate"):
         load(trace)
+
+
+def test_yaml_errors_are_one_line(tmp_path: Path) -> None:
+    """PyYAML's message spans three lines; the rule is one line per error."""
+    path = tmp_path / "deep.yml"
+    path.write_text("version: 1\ndevices: " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(RecordingError) as caught:
+        load(path)
+    assert "not valid YAML" in str(caught.value) and "\n" not in str(caught.value)
