@@ -94,6 +94,8 @@ def write_keypair(directory: Path, name: str, force: bool = False) -> tuple[Path
             f"key name {shown(repr(name))}: use 1-64 letters, digits, '-', '_' or '.', not "
             "starting with '.' (it names the files NAME.key and NAME.key_secret in DIR)"
         )
+    if directory.exists() and not directory.is_dir():  # mkdir said only "File exists"
+        raise KeyFileError(f"{shown(directory)} is not a folder; give the folder for the keys")
     public = directory / f"{name}.key"
     secret = directory / f"{name}.key_secret"
     if not force:
