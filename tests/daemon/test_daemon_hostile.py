@@ -195,6 +195,32 @@ def test_an_unknown_op_of_a_megabyte_is_not_repeated_whole(running: Any) -> None
     assert len(reply["error"]) < 1000
 
 
+def _big_polygon(points: int) -> str:
+    ring = ",".join(f"[{960 + i % 400}.5,{540 + i % 300}.5]" for i in range(points))
+    return GOOD + f'[[regions]]\nshape = "polygon"\nmaterial = "ice"\npoints = [{ring}]\n'
+
+
+def test_a_scene_too_large_for_the_wire_is_refused_and_the_old_one_kept(running: Any) -> None:
+    """A 0.9 MB scene file (under MAX_SCENE_BYTES) was accepted; its get_scene reply
+    (2 MB) and snapshot (1.1 MB) were then refused by every client as oversized."""
+    _, ctx, ctl = running
+    text = _big_polygon(55_000)
+    assert len(text.encode()) < min(MAX_SCENE_BYTES, protocol.MAX_MESSAGE_BYTES)
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=text))
+    assert reply["ok"] is False and "bytes; clients accept" in reply["error"], reply
+    assert _scene_name(ctx, ctl) == "default"
+    snap = request(ctx, ctl, protocol.make_request("snapshot"))
+    assert snap["ok"] and snap["scene"]["name"] == "default"
+
+
+def test_a_scene_that_fits_the_wire_is_served_whole(running: Any) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=_big_polygon(10_000)))
+    assert reply["ok"] is True
+    got = request(ctx, ctl, protocol.make_request("get_scene"))
+    assert got["ok"] and len(got["scene"]["regions"][0]["points"]) == 10_000
+
+
 def test_an_oversized_request_gets_a_reply_naming_the_limit(running: Any) -> None:
     d, ctx, ctl = running
     payload = protocol.make_request("set_scene", toml="#" * (2 * protocol.MAX_MESSAGE_BYTES))
