@@ -424,3 +424,21 @@ def test_any_request_is_answered_in_words_and_leaves_a_working_scene(
     reply = protocol.decode(d.control.handle(protocol.encode({"v": 1, "op": op, **args})))
     assert reply["ok"] is True or not str(reply["error"]).startswith("internal error"), reply
     protocol.encode(protocol.scene_message(d.scene_state.pipeline.wire(), 0))
+
+
+@pytest.mark.parametrize("rate", ["1e-300", "0.001"])
+def test_stictiond_at_a_rate_too_slow_to_stop_exits_2_in_one_line(
+    tmp_path: Path, rate: str
+) -> None:
+    """1e-300 Hz was an OverflowError traceback from the clock's sleep; 0.001 Hz a daemon
+    that slept through SIGTERM for 1000 s."""
+    argv = ["--rate", rate, "--device", "synthetic:demo", "--seconds", "1"]
+    argv += ["--pub", f"ipc://{tmp_path}/p", "--control", f"ipc://{tmp_path}/c"]
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.daemon.main", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "rate must be >= 1 Hz" in done.stderr and "Traceback" not in done.stderr
