@@ -22,6 +22,12 @@ from stiction.daemon import main as daemon_main
         (["--keepalive", "-1"], "--keepalive", "negative"),
         (["--realtime", "100"], "--realtime", "0 to 99"),
         (["--spin-ms", "-0.1"], "--spin-ms", "negative"),
+        # Each of these once reached ZeroMQ and raised OverflowError (a traceback; --hwm
+        # also left the daemon hung with its loop thread dead).
+        (["--wait-timeout", "1e300"], "--wait-timeout", "at most 1e+09 seconds"),
+        (["--seconds", "1e10"], "--seconds", "at most 1e+09 seconds"),
+        (["--keepalive", "1e300"], "--keepalive", "at most 1e+09 seconds"),
+        (["--hwm", "99999999999999999999"], "--hwm", "at most 2147483647"),
     ],
 )
 def test_stictiond_flags(
@@ -49,6 +55,29 @@ def test_stictiond_flags(
         (["web", "--pub", "nothing"], "--pub", "not a ZeroMQ endpoint"),
         (["web", "--port", "65536"], "--port", "0-65535"),
         (["proxy", "--frontend", "tcp://h:0", "--backend", "ipc://x"], "--frontend", "range"),
+        (["listen", "--seconds", "1e300"], "--seconds", "at most"),  # was OverflowError in poll
+        (["record", "--out", "x.npz", "--idle", "1e300"], "--idle", "at most"),
+        (["replay", "f.npz", "--wait", "1e300"], "--wait", "at most"),
+        (["replay", "f.npz", "--hold", "1e300"], "--hold", "at most"),
+        (["replay", "f.npz", "--speed", "1e-300"], "--speed", "from 1e-06 to 1e+06"),
+        (["web", "--seconds", "1e300"], "--seconds", "at most"),
+        (["demo", "--seconds", "1e300"], "--seconds", "at most"),
+        (["demo", "--port", "65536"], "--port", "0-65535"),
+        # experiment run passed these to zmq unchecked: a ZMQError traceback.
+        (
+            ["experiment", "run", "s", "--participant", "p", "--control", "foo"],
+            "--control",
+            "not a",
+        ),
+        (["experiment", "run", "s", "--participant", "p", "--pub", "foo"], "--pub", "not a"),
+        (["experiment", "run", "s", "--participant", "p", "--port", "99999"], "--port", "0-65535"),
+        # plain int/float flags took NaN, negative counts and islice(-1) (a ValueError).
+        (["hid", "record", "/dev/hidraw0", "--seconds", "nan"], "--seconds", "finite"),
+        (["hid", "record", "/dev/hidraw0", "--count", "-1"], "--count", "negative"),
+        (["hid", "read", "/dev/hidraw0", "--count", "-1"], "--count", "negative"),
+        (["evdev", "read", "/dev/input/event0", "--frames", "-1"], "--frames", "at least 1"),
+        (["evdev", "record", "/dev/input/event0", "o.evemu", "--frames", "0"], "--frames", "at"),
+        (["evdev", "decode", "r.evemu", "--index", "-1"], "--index", "negative"),
     ],
 )
 def test_stiction_flags(
@@ -63,7 +92,17 @@ def test_stiction_flags(
 
 
 @pytest.mark.parametrize(
-    "good", ["tcp://127.0.0.1:5555", "tcp://*:*", "tcp://[::1]:80", "ipc:///tmp/x", "inproc://a"]
+    "good",
+    [
+        "tcp://127.0.0.1:5555",
+        "tcp://*:*",
+        "tcp://[::1]:80",
+        "tcp://[fe80::1%eth0]:80",
+        "tcp://eth0:5556",
+        "tcp://tablet-pc:5556",
+        "ipc:///tmp/x",
+        "inproc://a",
+    ],
 )
 def test_good_endpoints_pass(good: str) -> None:
     assert daemon_main.build_parser().parse_args(["--pub", good]).pub == good
@@ -79,3 +118,22 @@ def test_config_endpoint_names_its_key(tmp_path: pytest.TempPathFactory) -> None
     path.write_text('[daemon]\npub = "tcp://127.0.0.1:99999"\n')
     with pytest.raises(StictionError, match=r"daemon\.pub.*out of range"):
         load_options(path)
+
+
+@pytest.mark.parametrize(
+    ("bad", "words"),
+    [
+        # libzmq took these and retried the connect forever: `listen` just waited
+        ("tcp://[::1:5556", "not an IPv6 address in brackets"),
+        ("tcp://1.2.3.4.5:1", "not an IPv4 address"),
+        ("tcp://256.0.0.1:1", "not an IPv4 address"),
+        ("tcp://::1:5556", "in brackets"),
+        ("tcp://my host:5556", "not a host name"),
+    ],
+)
+def test_malformed_hosts_are_refused(
+    bad: str, words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit):
+        cli.build_parser().parse_args(["listen", bad])
+    assert words in capsys.readouterr().err

@@ -36,7 +36,8 @@ SRC = ROOT / "src"
 
 LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"errors", "lazy"}),
-    frozenset({"userfiles", "argtypes", "protocol", "keyfiles", "tomlcheck", "__init__"}),
+    frozenset({"userfiles"}),
+    frozenset({"argtypes", "protocol", "keyfiles", "tomlcheck", "__init__"}),
     frozenset({"sim", "drivers"}),
     frozenset({"scene"}),
     frozenset({"daemon", "clients"}),
@@ -44,7 +45,9 @@ LAYERS: tuple[frozenset[str], ...] = (
     frozenset({"bench", "experiment"}),
     frozenset({"cli"}),
 )
-"""Lowest first. The simulator knows nothing of devices and the drivers
+"""Lowest first. userfiles (reading a path a user named) sits below the other
+helpers because key files, like scenes and recordings, are read through it.
+The simulator knows nothing of devices and the drivers
 nothing of the simulator; a scene maps device samples (drivers' PenSample)
 through the simulator; the daemon runs scenes; tools sit on the daemon and
 clients; commands on everything."""

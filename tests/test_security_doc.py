@@ -8,7 +8,7 @@ from pathlib import Path
 
 DOC = Path(__file__).resolve().parents[1] / "docs" / "security.md"
 ROW = re.compile(r"^\| [^|]+ \| ([^|]+) \| `([\w.]+)\.(\w+)` \|", re.M)
-UNITS = {"bytes": 1, "MiB": 1 << 20, "bits": 1, "px a side": 1}
+UNITS = {"bytes": 1, "MiB": 1 << 20, "GiB": 1 << 30, "bits": 1, "px a side": 1}
 
 
 def _stated(text: str) -> float:

@@ -70,3 +70,22 @@ def test_the_device_catalogue_uses_it_and_names_the_entrys_line() -> None:
         parse_toml(text, "o.toml", "user")
     with pytest.raises(DeviceError, match=r"^o\.toml: not valid TOML"):
         parse_toml("[[device]", "o.toml", "user")
+
+
+def test_a_typo_is_answered_with_the_key_it_was_probably_meant_to_be(tmp_path: Path) -> None:
+    with pytest.raises(
+        SceneError, match=r"s\.toml:4: materials\.a\.colour: .*did you mean 'color'\?"
+    ):
+        parse_scene('[materials.a]\nmu_s = 0.5\nmu_k = 0.1\ncolour = "#fff"\n', "s.toml")
+    cfg = tmp_path / "c.toml"
+    cfg.write_text("[deamon]\nrate = 100\n")
+    with pytest.raises(
+        ConfigError, match=r"c\.toml:1: deamon: unknown key; did you mean 'daemon'\?"
+    ):
+        load_options(cfg)
+    cfg.write_text("[daemon]\nrat = 100\n")
+    with pytest.raises(ConfigError, match=r"c\.toml:2: daemon\.rat: .*did you mean 'rate'\?"):
+        load_options(cfg)
+    r = TomlReader("f.toml", TEXT, Mine)  # nothing close: no guess
+    with pytest.raises(Mine, match=r"unknown key; expected one of a, b$"):
+        r.table(r.data["top"], ("top",), {"a", "b"})

@@ -9,7 +9,9 @@ it. Kept free of heavy imports: argument errors must not load zmq or numpy.
 from __future__ import annotations
 
 import argparse
+import ipaddress
 import math
+import re
 from collections.abc import Callable
 
 SCHEMES = ("tcp", "ipc", "inproc", "ws", "wss")
@@ -48,6 +50,11 @@ def non_negative_int(text: str) -> int:
     return value
 
 
+def finite_float(text: str) -> float:
+    """Any finite number (a position, an offset): NaN and infinities are refused."""
+    return _float(text)
+
+
 def positive_float(text: str) -> float:
     """A finite number > 0 (seconds, rates, factors)."""
     value = _float(text)
@@ -64,20 +71,71 @@ def non_negative_float(text: str) -> float:
     return value
 
 
+MAX_SECONDS = 1e9
+"""Any duration a flag or config key gives: some 31 years, longer than any run,
+and still a number that poll() (milliseconds in a C long) and thread waits
+accept; 1e300 s made ZeroMQ's poll raise OverflowError."""
+
+MAX_HWM = 2**31 - 1
+"""A ZeroMQ high-water mark is a C int; a larger one made setsockopt raise."""
+
+
+def hwm(text: str) -> int:
+    """A ZeroMQ high-water mark: a whole number from 1 to MAX_HWM."""
+    value = positive_int(text)
+    if value > MAX_HWM:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_HWM}, got {value}")
+    return value
+
+
+def seconds(text: str) -> float:
+    """A duration in seconds: finite, > 0, at most MAX_SECONDS."""
+    value = positive_float(text)
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SECONDS:g} seconds, got {text}")
+    return value
+
+
+def seconds_or_zero(text: str) -> float:
+    """A duration in seconds where 0 has a documented meaning: finite, 0 to MAX_SECONDS."""
+    value = non_negative_float(text)
+    if value > MAX_SECONDS:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SECONDS:g} seconds, got {text}")
+    return value
+
+
+MAX_FACTOR = 1e6
+"""A pace factor (`--speed`) from 1/MAX_FACTOR to MAX_FACTOR: a million times
+slower still replays an hour's pause as a wait poll() can hold; 1e-300 raised
+OverflowError there."""
+
+
+def factor(text: str) -> float:
+    """A pace factor: finite, from 1/MAX_FACTOR to MAX_FACTOR."""
+    value = positive_float(text)
+    if not 1 / MAX_FACTOR <= value <= MAX_FACTOR:
+        raise argparse.ArgumentTypeError(
+            f"must be from {1 / MAX_FACTOR:g} to {MAX_FACTOR:g}, got {text}"
+        )
+    return value
+
+
 SIZE_MM_FLAG = "--size-mm WxH (e.g. --size-mm 254x158.8)"
 """How a command line that reads a device gives its size: in millimetres, the unit in the flag."""
 
 
 def size_mm(text: str) -> tuple[float, float]:
-    """`WxH`: an active area in millimetres, both finite and > 0, at most 10 m."""
+    """`WxH`: an active area in millimetres, both finite, from 1 mm to 10 m (a
+    smaller one is a typo that scaled the pointer to 1e304 px)."""
     w, sep, h = text.lower().partition("x")
     try:
         size = (float(w), float(h))
     except ValueError:
         size = (math.nan, math.nan)
-    if not sep or not all(math.isfinite(v) and 0 < v <= 10_000 for v in size):
+    if not sep or not all(math.isfinite(v) and 1 <= v <= 10_000 for v in size):
         raise argparse.ArgumentTypeError(
-            f"expected the active area as WIDTHxHEIGHT in millimetres, e.g. 254x158.8, got {text!r}"
+            "expected the active area as WIDTHxHEIGHT in millimetres (1 to 10000), "
+            f"e.g. 254x158.8, got {text!r}"
         )
     return size
 
@@ -125,6 +183,37 @@ def port(text: str) -> int:
     return value
 
 
+_HOSTNAME = re.compile(r"[A-Za-z0-9_](?:[A-Za-z0-9_.\-]{0,252})")
+"""A host or interface name (tablet-pc, localhost, eth0) as libzmq resolves it."""
+
+
+def _check_host(text: str, host: str) -> None:
+    """Refuse a host libzmq would take and fail on later, or never reach.
+
+    `tcp://[::1:5556` and `tcp://1.2.3.4.5:1` passed before: a connect to
+    them is silently retried forever, so `stiction listen` just waited.
+    """
+    if host == "*":
+        return
+    if host.startswith("[") or host.endswith("]"):
+        inner = host[1:-1] if host.startswith("[") and host.endswith("]") else None
+        try:
+            ipaddress.IPv6Address(inner.split("%", 1)[0] if inner else "")
+        except ValueError:
+            raise ValueError(f"{text!r}: {host!r} is not an IPv6 address in brackets") from None
+        return
+    if ":" in host:
+        raise ValueError(f"{text!r}: write an IPv6 address in brackets, e.g. tcp://[::1]:5556")
+    if all(c.isdigit() or c == "." for c in host):
+        try:
+            ipaddress.IPv4Address(host)
+        except ValueError:
+            raise ValueError(f"{text!r}: {host!r} is not an IPv4 address") from None
+        return
+    if not _HOSTNAME.fullmatch(host):
+        raise ValueError(f"{text!r}: {host!r} is not a host name, an address or *")
+
+
 def check_endpoint(text: str) -> str:
     """Return the ZeroMQ endpoint `text`, or raise ValueError saying what is wrong with it.
 
@@ -144,6 +233,7 @@ def check_endpoint(text: str) -> str:
         host, colon, porttext = hostport.rpartition(":")
         if not colon or not host:
             raise ValueError(f"{text!r} needs HOST:PORT after {scheme}://")
+        _check_host(text, host)
         if porttext != "*":
             try:
                 value = int(porttext)

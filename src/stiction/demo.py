@@ -17,6 +17,7 @@ import time
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from stiction.argtypes import port, seconds
 from stiction.daemon.spawn import daemon_command
 from stiction.errors import StictionError
 
@@ -107,8 +108,10 @@ def run_demo(
 
     from stiction.clients.web.errors import PortInUse
 
-    if not scene.is_file():
+    if not scene.exists():
         raise StictionError(f"scene file {scene} not found")
+    if not scene.is_file():  # a directory or a FIFO: stictiond would refuse it, in other words
+        raise StictionError(f"{scene}: not a regular file; a scene must be a file")
     workdir = Path(tempfile.mkdtemp(prefix="stiction-demo-"))
     pub, control = f"ipc://{workdir}/pub", f"ipc://{workdir}/control"
     cmd = [
@@ -155,26 +158,6 @@ def run_demo(
     return 0
 
 
-def _positive(text: str) -> float:
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
-    if not 0 < value < float("inf"):
-        raise argparse.ArgumentTypeError(f"must be a positive number, got {text}")
-    return value
-
-
-def _port(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a port number, got {text!r}") from None
-    if not 0 <= value <= 65535:
-        raise argparse.ArgumentTypeError(f"not a TCP port: {value}")
-    return value
-
-
 def _handle(args: argparse.Namespace) -> int:
     return run_demo(
         port=DEFAULT_PORT if args.port is None else args.port,
@@ -196,10 +179,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument(
         "--port",
-        type=_port,
+        type=port,
         help=f"web page port (default {DEFAULT_PORT}, or a free one if it is taken; 0: any)",
     )
-    p.add_argument("--seconds", type=_positive, help="stop after S seconds (headless runs, tests)")
+    p.add_argument("--seconds", type=seconds, help="stop after S seconds (headless runs, tests)")
     p.add_argument("--scene", default=str(DEMO_SCENE), help="scene file (default: the demo scene)")
     p.add_argument("--device", default="synthetic:demo", help="device spec for stictiond")
     p.set_defaults(func=_handle)

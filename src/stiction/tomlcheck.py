@@ -15,9 +15,10 @@ answers "where did this key start".
 
 from __future__ import annotations
 
+import difflib
 import re
 import tomllib
-from collections.abc import Mapping, Sequence
+from collections.abc import Collection, Mapping, Sequence
 from pathlib import Path
 from typing import Any, NoReturn
 
@@ -126,6 +127,17 @@ def kind(value: Any) -> str:
     return type(value).__name__
 
 
+def unknown_key(key: str, allowed: Collection[str]) -> str:
+    """The message for a key that is not in `allowed`, with the likely intended one.
+
+    A typo (`rat`, `colour`, `deamon`) is the usual cause; difflib's ratio finds
+    the known key it is closest to, and the message offers it first.
+    """
+    close = difflib.get_close_matches(key, list(allowed), n=1, cutoff=0.6)
+    hint = f"did you mean {close[0]!r}? " if close else ""
+    return f"unknown key; {hint}expected one of {', '.join(sorted(allowed))}"
+
+
 class TomlReader:
     """One TOML text: its data, where each key is, and failures that say so.
 
@@ -161,9 +173,7 @@ class TomlReader:
             self.fail(path, f"must be a table, got {kind(value)}")
         for key in value:
             if key not in allowed:
-                self.fail(
-                    (*path, key), f"unknown key; expected one of {', '.join(sorted(allowed))}"
-                )
+                self.fail((*path, key), unknown_key(key, allowed))
         return value
 
     def string(self, value: Any, path: FieldPath) -> str:

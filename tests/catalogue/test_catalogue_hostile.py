@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
@@ -98,3 +99,24 @@ def test_any_overlay_is_usable_entries_or_one_device_error(
             ReportStream(parse_descriptor(hid.descriptor or OWN), "pen", None, hid)
         except DeviceError:
             pass
+
+
+def test_an_overlay_that_is_a_fifo_binary_or_a_folder_is_one_device_error(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A FIFO blocked every device lookup; a binary file was a UnicodeDecodeError."""
+    import os
+
+    from stiction.drivers.catalogue.load import USER_TABLE_ENV, user
+
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    binary = tmp_path / "binary.toml"
+    binary.write_bytes(b"\xbc\xff\x00[[")
+    for path, words in ((fifo, "not a regular file"), (tmp_path, "not a regular file"),
+                        (binary, "not valid TOML")):  # fmt: skip
+        monkeypatch.setenv(USER_TABLE_ENV, str(path))
+        with pytest.raises(DeviceError, match=words):
+            user()
+    monkeypatch.setenv(USER_TABLE_ENV, str(tmp_path / "none.toml"))
+    assert user() == ()

@@ -56,6 +56,16 @@ def test_demo_bad_scene_is_one_line(tmp_path: Path) -> None:
     assert res.stderr.startswith("stiction: error: scene file") and "Traceback" not in res.stderr
 
 
+def test_demo_with_a_directory_as_its_scene_says_so(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """It said 'scene file DIR not found' of a folder that is there."""
+    from stiction.cli import main
+
+    assert main(["demo", "--seconds", "1", "--port", "0", "--scene", str(tmp_path)]) == 2
+    assert "not a regular file" in capsys.readouterr().err
+
+
 @pytest.mark.browser
 def test_demo_page_shows_the_demo_scene_and_stops_on_ctrl_c(browser: Any) -> None:
     proc = subprocess.Popen(

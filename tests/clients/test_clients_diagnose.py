@@ -41,6 +41,16 @@ def test_each_silence_has_its_own_words(
     assert words in message
 
 
+def test_a_device_filter_the_daemon_cannot_satisfy_is_named() -> None:
+    """listen --device typo said 'nothing arrives on PUB: is that its --pub endpoint?'."""
+    reply = {"devices": [dev("synthetic-demo", "open")]}
+    kind, message = explain(PUB, CTL, reply, None, ["nosuch"])
+    assert kind == "elsewhere" and "has no device 'nosuch'" in message
+    assert "--device takes one of: synthetic-demo" in message and "--pub" not in message
+    kind, message = explain(PUB, CTL, reply, None, ["synthetic-demo"])
+    assert "--pub endpoint" in message  # the filter is fine: back to the endpoint
+
+
 def test_without_a_control_endpoint_it_can_only_ask() -> None:
     kind, message = explain(PUB, None, None, None)
     assert kind == "unknown" and "is stictiond running?" in message

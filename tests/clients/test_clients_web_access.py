@@ -112,3 +112,20 @@ def test_a_given_token_is_used(capsys: pytest.CaptureFixture[str]) -> None:
     with serving("0.0.0.0", token="s3cret") as url:
         assert url.endswith("?token=s3cret")
         assert asyncio.run(_get(_local(url))) == 200
+
+
+def test_an_empty_token_is_refused_not_matched_by_every_request(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """--host 0.0.0.0 --token '' served the pen to anyone: '' equals a missing token."""
+    from stiction import cli
+
+    argv = ["web", "--host", "0.0.0.0", "--port", "0", "--token", "", "--seconds", "0.1"]
+    assert cli.main([*argv, "--no-control"]) == 2
+    assert "--token is empty" in capsys.readouterr().err
+
+
+def test_a_token_with_url_characters_reaches_the_server_whole() -> None:
+    with serving("0.0.0.0", token="a&b#c d") as url:
+        assert url.endswith("?token=a%26b%23c%20d")
+        assert asyncio.run(_get(_local(url))) == 200

@@ -21,7 +21,7 @@ from typing import Any
 import pytest
 import zmq
 from daemon_support import ListSource, Runner, make_daemon, request, stroke
-from hypothesis import given, settings
+from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stiction import protocol
@@ -98,6 +98,127 @@ def test_set_params_refuses_numbers_out_of_range_and_keeps_going(running: Any, v
     assert reply["ok"] is False and "parameter k" in reply["error"]
     assert request(ctx, ctl, protocol.make_request("get_params"))["ok"]
     assert request(ctx, ctl, protocol.make_request("snapshot"))["ok"]
+
+
+@pytest.mark.parametrize(
+    ("path", "words"),
+    [
+        ("scene\x00.toml", "NUL byte"),  # os.open raised ValueError: an "internal error"
+        ("s" * 100_000, "(100000 characters)"),  # the reply and the log repeated all of it
+        ("", "empty"),  # Path("") is ".", so the reply spoke of a directory nobody named
+    ],
+)
+def test_set_scene_with_an_impossible_path_is_one_short_error(
+    running: Any, path: str, words: str
+) -> None:
+    d, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_scene", path=path))
+    assert reply["ok"] is False and words in reply["error"], reply
+    assert not reply["error"].startswith("internal error")
+    assert len(reply["error"]) < 400
+    assert d.control.errors == 1
+    assert _scene_name(ctx, ctl) == "default"
+
+
+@pytest.mark.parametrize(
+    "args",
+    [{"m" * 100_000: 1.0}, {"k": "9" * 100_000}, {"k": 1.0, "material": "m" * 100_000}],
+)
+def test_set_params_with_huge_names_or_values_is_one_short_error(
+    running: Any, args: dict[str, Any]
+) -> None:
+    d, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_params", **args))
+    assert reply["ok"] is False and "characters)" in reply["error"], reply["error"][:200]
+    assert len(reply["error"]) < 400
+    assert d.control.errors == 1
+
+
+@pytest.mark.parametrize(
+    "request_args",
+    [
+        {"op": "set_params", "k": 1e4},
+        {"op": "set_params", "k": 1e4, "material": "standard"},
+        {"op": "set_scene", "toml": GOOD + "k = 1e4\n"},
+    ],
+)
+def test_a_change_the_integrator_cannot_step_is_refused_and_the_loop_keeps_ticking(
+    endpoints: tuple[str, str], request_args: dict[str, Any]
+) -> None:
+    """explicit-euler with k = 1e4 was accepted (ok: true) and then failed every tick."""
+    gate = threading.Event()
+    d = make_daemon(
+        endpoints,
+        {"pen": ListSource(stroke(n=50), gate=gate)},
+        integrator="explicit-euler",
+    )
+    ctx, ctl = zmq.Context.instance(), endpoints[1]
+    with Runner(d):
+        args = dict(request_args)
+        reply = request(ctx, ctl, protocol.make_request(args.pop("op"), **args))
+        assert reply["ok"] is False and "explicit-euler is unstable" in reply["error"]
+        assert _scene_name(ctx, ctl) == "default"
+        params = request(ctx, ctl, protocol.make_request("get_params"))["params"]
+        assert params["k"] == 0.1
+        assert d.control is not None and d.control.errors == 1
+        gate.set()  # the pen draws on the scene that was kept: every tick steps cleanly
+        for _ in range(2000):
+            pen = request(ctx, ctl, protocol.make_request("stats"))["stats"]["devices"]["test-pen"]
+            if pen["samples"] >= 50:
+                break
+        assert pen["samples"] >= 50 and pen["errors"] == 0, pen
+
+
+def test_stictiond_with_a_scene_its_integrator_cannot_step_exits_2(tmp_path: Path) -> None:
+    scene = tmp_path / "stiff.toml"
+    scene.write_text(GOOD + "k = 1e4\n")
+    argv = ["--scene", str(scene), "--integrator", "explicit-euler", "--device", "synthetic:demo"]
+    argv += ["--pub", f"ipc://{tmp_path}/p", "--control", f"ipc://{tmp_path}/c"]
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.daemon.main", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "explicit-euler is unstable" in done.stderr and "Traceback" not in done.stderr
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="protocol.parse_request repeats the whole unknown op in its error (owned elsewhere)",
+)
+def test_an_unknown_op_of_a_megabyte_is_not_repeated_whole(running: Any) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.encode({"v": protocol.SCHEMA_VERSION, "op": "x" * 500_000}))
+    assert reply["ok"] is False and "unknown op" in reply["error"]
+    assert len(reply["error"]) < 1000
+
+
+def _big_polygon(points: int) -> str:
+    ring = ",".join(f"[{960 + i % 400}.5,{540 + i % 300}.5]" for i in range(points))
+    return GOOD + f'[[regions]]\nshape = "polygon"\nmaterial = "ice"\npoints = [{ring}]\n'
+
+
+def test_a_scene_too_large_for_the_wire_is_refused_and_the_old_one_kept(running: Any) -> None:
+    """A 0.9 MB scene file (under MAX_SCENE_BYTES) was accepted; its get_scene reply
+    (2 MB) and snapshot (1.1 MB) were then refused by every client as oversized."""
+    _, ctx, ctl = running
+    text = _big_polygon(55_000)
+    assert len(text.encode()) < min(MAX_SCENE_BYTES, protocol.MAX_MESSAGE_BYTES)
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=text))
+    assert reply["ok"] is False and "bytes; clients accept" in reply["error"], reply
+    assert _scene_name(ctx, ctl) == "default"
+    snap = request(ctx, ctl, protocol.make_request("snapshot"))
+    assert snap["ok"] and snap["scene"]["name"] == "default"
+
+
+def test_a_scene_that_fits_the_wire_is_served_whole(running: Any) -> None:
+    _, ctx, ctl = running
+    reply = request(ctx, ctl, protocol.make_request("set_scene", toml=_big_polygon(10_000)))
+    assert reply["ok"] is True
+    got = request(ctx, ctl, protocol.make_request("get_scene"))
+    assert got["ok"] and len(got["scene"]["regions"][0]["points"]) == 10_000
 
 
 def test_an_oversized_request_gets_a_reply_naming_the_limit(running: Any) -> None:
@@ -247,3 +368,77 @@ def test_any_device_table_overlay_is_a_table_or_one_device_error(text: str) -> N
 
     with contextlib.suppress(DeviceError):
         parse_table(text, "overlay.toml")
+
+
+@pytest.mark.xfail(
+    strict=True,
+    reason="daemon/devices.py (owned elsewhere): _path_problem accepts any character "
+    "device, so /dev/null is taken as a device name and waited for forever",
+)
+@pytest.mark.parametrize("spec", ["/dev/null", "/dev/zero"])
+def test_a_character_device_that_is_not_an_input_node_is_refused_at_start(spec: str) -> None:
+    from stiction.daemon.devices import parse_spec, spec_problem
+
+    problem = spec_problem(parse_spec(spec))
+    assert problem is not None and spec in problem
+
+
+_ANY_VALUE = st.recursive(
+    st.one_of(
+        st.none(),
+        st.booleans(),
+        st.integers(-(2**63), 2**64 - 1),
+        st.floats(allow_nan=True, allow_infinity=True),
+        st.text(max_size=40),
+        st.binary(max_size=40),
+        st.sampled_from(["", "a\x00b", ".", "/dev/zero", "/proc/self/mem", "-1e999"]),
+    ),
+    lambda inner: (
+        st.lists(inner, max_size=4) | st.dictionaries(st.text(max_size=8), inner, max_size=4)
+    ),
+    max_leaves=8,
+)
+_ARG_NAMES = ["mu_s", "mu_k", "k", "m", "g", "C_l", "rate", "material", "toml", "path", "x"]
+
+
+@pytest.fixture
+def idle_daemon(endpoints: tuple[str, str]):  # type: ignore[no-untyped-def]
+    """An opened daemon whose loop does not run: requests go through its handler directly."""
+    d = make_daemon(endpoints, {"pen": ListSource(stroke())})
+    yield d
+    d.close()
+
+
+@settings(max_examples=300, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@given(
+    op=st.sampled_from([*protocol.CONTROL_OPS, "nope"]),
+    args=st.dictionaries(st.sampled_from(_ARG_NAMES), _ANY_VALUE, max_size=4),
+)
+def test_any_request_is_answered_in_words_and_leaves_a_working_scene(
+    idle_daemon: Any, op: str, args: dict[str, Any]
+) -> None:
+    """Each request goes through the daemon's own handler (parse, prepare, apply); none may
+    escape as an 'internal error', and whatever is in force afterwards still encodes."""
+    d = idle_daemon
+    assert d.control is not None
+    reply = protocol.decode(d.control.handle(protocol.encode({"v": 1, "op": op, **args})))
+    assert reply["ok"] is True or not str(reply["error"]).startswith("internal error"), reply
+    protocol.encode(protocol.scene_message(d.scene_state.pipeline.wire(), 0))
+
+
+@pytest.mark.parametrize("rate", ["1e-300", "0.001"])
+def test_stictiond_at_a_rate_too_slow_to_stop_exits_2_in_one_line(
+    tmp_path: Path, rate: str
+) -> None:
+    """1e-300 Hz was an OverflowError traceback from the clock's sleep; 0.001 Hz a daemon
+    that slept through SIGTERM for 1000 s."""
+    argv = ["--rate", rate, "--device", "synthetic:demo", "--seconds", "1"]
+    argv += ["--pub", f"ipc://{tmp_path}/p", "--control", f"ipc://{tmp_path}/c"]
+    done = subprocess.run(
+        [sys.executable, "-m", "stiction.daemon.main", *argv],
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert done.returncode == 2, done.stderr
+    assert "rate must be >= 1 Hz" in done.stderr and "Traceback" not in done.stderr

@@ -70,3 +70,25 @@ def test_a_client_refuses_a_secret_key_others_can_read(tmp_path: Path) -> None:
     os.chmod(secret, 0o640)
     with pytest.raises(CurveKeyError, match="chmod 600"):
         CurveKeys.from_files(tmp_path / "daemon.key", secret)
+
+
+@pytest.mark.parametrize("name", ["", ".hidden", "../escape", "a/b", "x" * 65, "new\nline"])
+def test_a_key_name_that_is_not_a_plain_file_name_is_refused(
+    tmp_path: Path, name: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from stiction import cli
+
+    assert cli.main(["keys", str(tmp_path / "k"), name]) == 2
+    err = capsys.readouterr().err
+    assert "key name" in err and "letters, digits" in err and err.count("\n") == 1
+    assert not (tmp_path / "k").exists() or not list((tmp_path / "k").iterdir())
+
+
+def test_keys_into_a_file_says_it_is_not_a_folder(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from stiction import cli
+
+    (tmp_path / "file").write_text("x")
+    assert cli.main(["keys", str(tmp_path / "file"), "daemon"]) == 2
+    assert "is not a folder" in capsys.readouterr().err

@@ -54,3 +54,76 @@ def test_booleans_are_not_numbers() -> None:
     assert problem("realtime", True) is not None
     assert problem("hwm", True) is not None
     assert problem("spin_ms", 0) is None
+
+
+@pytest.mark.parametrize(
+    ("table", "name", "value", "limit"),
+    [
+        ("daemon", "hwm", 2**31, "2147483647"),  # reached setsockopt: OverflowError, a hung daemon
+        ("daemon", "keepalive", 1e300, "1e+09"),
+        ("sim", "substeps", 10**8, "10000"),  # minutes per tick
+    ],
+)
+def test_values_too_large_to_use_are_refused_with_the_limit(
+    table: str, name: str, value: float, limit: str, tmp_path: Path
+) -> None:
+    wrong = problem(name, value)
+    assert wrong is not None and limit in wrong
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f"[{table}]\n{name} = {value!r}\n")
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value) == f"{cfg}:2: {table}.{name}: {wrong}"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        # each was refused only later, by the simulator, without file or line (or not at all)
+        ('[sim]\nintegrator = "rk5"\n', ":2: sim.integrator: unknown integrator 'rk5'"),
+        ("[sim]\nmu_s = 1e300\n", ":2: sim.mu_s: must be at most 100"),
+        ("[sim]\nm = 1e308\n", ":2: sim.m: must be at most 1e+09"),
+        ("[sim]\nk = 1e-300\n", ":2: sim.k: parameters k=1e-300"),
+        ("[sim]\nmu_k = -1\n", ":2: sim.mu_k: parameter mu_k must be >= 0"),
+    ],
+)
+def test_sim_defaults_are_checked_where_they_are_written(
+    text: str, message: str, tmp_path: Path
+) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(text)
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value).startswith(f"{cfg}{message}")
+
+
+@pytest.mark.parametrize(
+    ("entry", "message"),
+    [
+        # each was accepted and drew the pointer at 1e298 to 1e304 px
+        ("gain = 1e300", ":3: devices[0].gain: must be at most 1000"),
+        ("screen_area = [0, 0, 1e300, 1e300]", ":3: devices[0].screen_area: must be pixels"),
+        ("surface_area_mm = [0, 0, 1e-300, 1e-300]", ":3: devices[0].surface_area_mm: must be"),
+        ("size_mm = [1e-300, 1e-300]", ":3: devices[0].size_mm: must be [width, height] in mil"),
+        ("surface_size = [20, 0.1]", ":3: devices[0].surface_size: must be [width, height] in me"),
+    ],
+)
+def test_mapping_values_far_outside_any_tablet_or_display_are_refused(
+    entry: str, message: str, tmp_path: Path
+) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(f'[[devices]]\nspec = "synthetic:demo"\n{entry}\n')
+    with pytest.raises(ConfigError) as caught:
+        load_options(cfg)
+    assert str(caught.value).startswith(f"{cfg}{message}")
+
+
+def test_a_tablet_sized_mapping_still_loads(tmp_path: Path) -> None:
+    cfg = tmp_path / "c.toml"
+    cfg.write_text(
+        '[[devices]]\nspec = "synthetic:demo"\nsize_mm = [254, 158.8]\n'
+        "surface_area_mm = [10, 10, 100, 50]\nscreen_area = [0, 0, 1920, 1080]\ngain = 2\n"
+    )
+    (device,) = load_options(cfg).devices
+    assert device.surface_size == pytest.approx((0.254, 0.1588))
+    assert device.mapping.gain == 2.0

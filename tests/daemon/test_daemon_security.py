@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import logging
+import os
 import threading
 from pathlib import Path
 from typing import Any
@@ -13,7 +15,7 @@ import zmq.auth
 from daemon_support import ListSource, Runner, make_daemon, stroke
 
 from stiction import protocol
-from stiction.daemon.security import CurveConfig, SecurityError, is_local_endpoint
+from stiction.daemon.security import ZAP_DOMAIN, CurveConfig, SecurityError, is_local_endpoint
 
 
 def _keypair(directory, name):  # type: ignore[no-untyped-def]
@@ -163,3 +165,65 @@ def test_control_client_with_a_refused_key_returns_promptly(keys: dict[str, Path
     for exc in outcome:
         assert isinstance(exc, ControlUnavailable), exc
         assert "within 0.3 s" in str(exc)
+
+
+def _damage(path: Path) -> None:
+    """Keep the file's shape but cut its secret key short (a bad copy-paste)."""
+    text = path.read_text()
+    start = text.index('secret-key = "') + len('secret-key = "')
+    path.write_text(text[:start] + "short" + text[text.index('"', start) :])
+
+
+def test_a_damaged_or_fifo_key_in_the_authorised_folder_locks_nobody_out(
+    keys: dict[str, Path], caplog: pytest.LogCaptureFixture
+) -> None:
+    from stiction.daemon.security import AuthorizedKeys
+
+    folder = keys["authorized"]
+    (folder / "garbage.key").write_bytes(b"\x00\xff not a certificate")
+    os.mkfifo(folder / "fifo.key")  # zmq.auth opened it and blocked, even SIGTERM
+    authorized = AuthorizedKeys(folder)
+    with caplog.at_level(logging.WARNING, "stiction.daemon.security"):
+        assert authorized.reload() == 1
+    client_public = zmq.auth.load_certificate(str(keys["client.pub"]))[0]
+    assert authorized.callback(ZAP_DOMAIN, client_public)
+    assert not authorized.callback(ZAP_DOMAIN, b"x" * 40)
+    skipped = " ".join(r.getMessage() for r in caplog.records)
+    assert "garbage.key" in skipped and "fifo.key" in skipped
+
+
+@pytest.mark.parametrize("problem", ["garbage", "fifo", "damaged", "alone"])
+def test_a_given_key_that_cannot_be_used_stops_the_start_even_on_loopback(
+    keys: dict[str, Path], tmp_path: Path, problem: str
+) -> None:
+    """Keys were read only when an endpoint needed them, so a broken one passed unseen."""
+    secret: Path = keys["server"]
+    authorized: Path | None = keys["authorized"]
+    if problem == "garbage":
+        secret = tmp_path / "garbage.key_secret"
+        secret.write_bytes(b"\x00\xff")
+    elif problem == "fifo":
+        secret = tmp_path / "fifo.key_secret"
+        os.mkfifo(secret)
+    elif problem == "damaged":
+        _damage(secret)
+    else:
+        authorized = None
+    curve = CurveConfig(secret, authorized)
+    with pytest.raises(SecurityError) as caught:
+        make_daemon((f"ipc://{tmp_path}/p", f"ipc://{tmp_path}/c"), {}, curve=curve)
+    assert "\n" not in str(caught.value)
+
+
+def test_a_client_with_a_damaged_key_is_one_error_not_a_zmq_traceback(
+    keys: dict[str, Path], capsys: pytest.CaptureFixture[str]
+) -> None:
+    from stiction import cli
+
+    _damage(keys["client"])
+    argv = ["listen", "ipc:///nonexistent/p", "--no-control", "--seconds", "0.1"]
+    argv += ["--curve-server-key", str(keys["server.pub"])]
+    argv += ["--curve-client-key", str(keys["client"])]
+    assert cli.main(argv) == 2
+    err = capsys.readouterr().err
+    assert "not 40 Z85 characters" in err and "Traceback" not in err

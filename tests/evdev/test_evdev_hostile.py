@@ -58,6 +58,15 @@ def test_backwards_time_is_refused_with_its_line(evdev_data: Path, tmp_path: Pat
         load(path)
 
 
+def test_a_megabyte_line_is_not_repeated_whole_in_the_error(tmp_path: Path) -> None:
+    path = tmp_path / "long.evemu"
+    path.write_text("Q" * 1_000_000 + "\n")  # was quoted whole: a 1 MB error message
+    with pytest.raises(RecordingError) as caught:
+        load(path)
+    assert str(caught.value).startswith(f"{path}:1: unknown line type")
+    assert len(str(caught.value)) < 500
+
+
 def test_libinput_record_aliases_are_refused_before_expansion(tmp_path: Path) -> None:
     bomb = ["version: 1", "a: &a [x, x, x, x, x, x, x, x, x, x]"]
     for i in range(1, 12):
@@ -131,3 +140,31 @@ def test_a_billion_second_pause_replays_as_a_short_one_on_the_virtual_clock(
     assert "replayed as" in done.stderr
     ticks = int(done.stderr.rsplit("stopped ticks=", 1)[1].split()[0])
     assert ticks < (1 + MAX_GAP_S) * 100 * 2  # the recording's 0.5 s plus one capped pause
+
+
+def test_a_stiction_recording_or_a_trace_given_as_a_device_recording_is_named(
+    tmp_path: Path,
+) -> None:
+    """stictiond --device replay:FILE read both as evemu: 'unknown line type PK...'."""
+    import numpy as np
+
+    npz = tmp_path / "session.npz"
+    np.savez(npz, frame_tick=np.arange(3))
+    with pytest.raises(RecordingError, match=r"session\.npz is a `stiction record` recording"):
+        load(npz)
+    (tmp_path / "zipped.evemu").write_bytes(npz.read_bytes())  # the content decides too
+    with pytest.raises(RecordingError, match="stiction replay"):
+        load(tmp_path / "zipped.evemu")
+    trace = tmp_path / "trace.evemu"
+    trace.write_text("t,x,y,contact\n0,0,0,1\n")
+    with pytest.raises(RecordingError, match=r"is a trace CSV.*stiction simulate"):
+        load(trace)
+
+
+def test_yaml_errors_are_one_line(tmp_path: Path) -> None:
+    """PyYAML's message spans three lines; the rule is one line per error."""
+    path = tmp_path / "deep.yml"
+    path.write_text("version: 1\ndevices: " + "[" * 5000 + "]" * 5000 + "\n")
+    with pytest.raises(RecordingError) as caught:
+        load(path)
+    assert "not valid YAML" in str(caught.value) and "\n" not in str(caught.value)

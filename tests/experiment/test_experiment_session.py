@@ -181,3 +181,59 @@ def test_bad_participant_ids_are_refused(tmp_path: Path) -> None:
     for bad in ("", "../x", "a/b", ".hidden", "x" * 65):
         with pytest.raises(StictionError, match="participant ID"):
             Session(load_study("paper-study1"), bad, tmp_path)
+
+
+@pytest.mark.parametrize(
+    ("data", "words"),
+    [
+        ("[" * 3000 + "]" * 3000, "recursion"),  # fits the 4 KiB frame; the decoder recursed
+        ("[1, 2]", "expected a JSON object"),
+        ("not json", "Expecting value"),
+    ],
+)
+def test_a_page_message_that_is_not_a_press_is_refused_in_words(data: str, words: str) -> None:
+    from typing import Any, cast
+
+    from stiction.experiment.live import LiveRunner
+
+    runner = LiveRunner(cast(Any, None), "ipc:///nonexistent/p", "ipc:///nonexistent/c")
+    refused = runner.press(data)
+    assert refused is not None and words in refused
+
+
+def _header() -> bytes:
+    from stiction.experiment.data import COLUMNS
+
+    return (",".join(COLUMNS) + "\n").encode()
+
+
+_HEADER = _header()
+
+
+@pytest.mark.parametrize(
+    ("content", "words"),
+    [
+        (b"\xbc\xff\x00\rab\n", "not valid CSV"),  # was a UnicodeDecodeError traceback
+        (_HEADER + b"p01\rx,1\n", "not valid CSV"),  # a stray CR: was a csv.Error traceback
+    ],
+)
+def test_a_damaged_participant_file_is_one_data_error(
+    tmp_path: Path, content: bytes, words: str
+) -> None:
+    from stiction.experiment.data import DataError, completed
+
+    path = tmp_path / "p01.csv"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match=words):
+        completed(path)
+
+
+@pytest.mark.parametrize("content", [b"[" * 100_000, b"\xbc\xff", b"[1, 2]"])
+def test_a_damaged_sidecar_is_one_data_error(tmp_path: Path, content: bytes) -> None:
+    """JSON nested 100,000 deep was a RecursionError traceback on resume."""
+    from stiction.experiment.data import DataError, read_sidecar
+
+    path = tmp_path / "p01.json"
+    path.write_bytes(content)
+    with pytest.raises(DataError, match="sidecar"):
+        read_sidecar(path)

@@ -124,3 +124,32 @@ def test_the_docs_show_the_preset_as_it_is() -> None:
     (block,) = [b for b in re.findall(r"```toml\n(.*?)```", doc, re.S) if "paper-study2" in b]
     quoted = parse_study(block, "paper-study2")
     assert quoted == load_study("paper-study2")
+
+
+def test_a_study_error_names_the_line_and_the_key_it_meant() -> None:
+    text = MINIMAL + "[params]\nkk = 1\n"
+    line = text.count("\n")  # kk is the last line
+    with pytest.raises(StudyError) as info:
+        parse_study(text, "bad.toml")
+    assert str(info.value).startswith(f"bad.toml:{line}: params.kk: unknown key; did you mean 'k'?")
+
+
+def test_a_study_nested_thousands_deep_is_one_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    deep = tmp_path / "deep.toml"  # tomllib recursed until RecursionError: a traceback
+    deep.write_text("a = " + "[" * 5000 + "]" * 5000 + "\n")
+    assert main(["experiment", "check", str(deep)]) == 2
+    err = capsys.readouterr().err
+    assert "nested too deeply" in err and "Traceback" not in err
+
+
+def test_repetitions_from_the_command_line_have_the_files_bound(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """--repetitions bypassed MAX_TRIALS: a study of 1.2e12 trials was 'checked' fine."""
+    assert main(["experiment", "check", "paper-study1", "--repetitions", "99999999999"]) == 2
+    assert "at most 10000" in capsys.readouterr().err
+    with pytest.raises(SystemExit):  # an argument error: argparse exits 2 itself
+        main(["experiment", "simulate", "paper-study1", "--participants", "99999", "--out", "x"])
+    assert "argument --participants: must be at most 1000" in capsys.readouterr().err

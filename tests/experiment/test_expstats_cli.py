@@ -263,3 +263,45 @@ def test_missing_extra_says_what_to_install(
     code, _, err = run(["analyze", str(tmp_path), "--out", str(tmp_path / "o")], capsys)
     assert code == 2
     assert "no_such_module_for_expstats" in err and "stiction[experiment]" in err
+
+
+def test_a_binary_file_named_csv_is_one_clear_error(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """csv raised its own error from the header row: a traceback."""
+    path = tmp_path / "junk.csv"
+    path.write_bytes(b"\x00\xfe\rab\ncd\r\x00")
+    code, _, err = run(["analyze", str(path), "--out", str(tmp_path / "o")], capsys)
+    assert code == 2 and f"{path}:1: not valid CSV" in err
+    assert "Traceback" not in err and err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        # numpy was asked for 3.6 TiB: a MemoryError traceback
+        (["power", "paper-study1", "--simulations", "99999999999"], "at most 20000000"),
+        (["power", "paper-study1", "--participants", "10,99999999"], "at most 20000000"),
+    ],
+)
+def test_power_refuses_a_design_too_large_to_simulate(
+    argv: list[str], words: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run(argv, capsys)
+    assert code == 2 and words in err and "Traceback" not in err
+
+
+@pytest.mark.parametrize(
+    ("argv", "flag"),
+    [
+        (["power", "paper-study1", "--pse", "nan"], "--pse"),
+        (["power", "paper-study1", "--quest-simulations", "99999999"], "--quest-simulations"),
+        (["power", "paper-study1", "--max-trials", "99999999"], "--max-trials"),
+        (["analyze", "x.csv", "--out", "o", "--bootstrap", "99999999999"], "--bootstrap"),
+    ],
+)
+def test_power_and_analyze_flags_have_bounds(
+    argv: list[str], flag: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run(argv, capsys)
+    assert code == 2 and f"argument {flag}: " in err

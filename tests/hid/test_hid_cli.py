@@ -120,3 +120,24 @@ def test_decode_prints_huge_fields_as_hex(
     (line,) = _lines(capsys, "hid", "decode", str(f), "--json")
     (value,) = line["fields"]["0x000d0035"]
     assert value == hex((1 << 32752) - 1)
+
+
+@pytest.mark.parametrize("kind", ["file", "fifo", "directory", "/dev/zero"])
+def test_hid_read_of_something_that_is_not_hidraw_says_so(
+    tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """hidapi 'opened' these and said 'open failed', explained as a missing udev rule."""
+    import os
+
+    path = tmp_path / "node"
+    if kind == "file":
+        path.write_bytes(b"\x00" * 64)
+    elif kind == "fifo":
+        os.mkfifo(path)
+    elif kind == "directory":
+        path.mkdir()
+    else:
+        path = Path(kind)
+    assert main(["hid", "read", str(path), "--count", "1"]) == 2
+    err = capsys.readouterr().err
+    assert f"{path} is not a hidraw device" in err and "udev" not in err

@@ -268,3 +268,18 @@ def test_no_devices_is_not_ok(tmp_path: Path) -> None:
     assert result["report"]["devices"] == []
     assert result["report"]["ok"] is False
     assert result["returncode"] == 1
+
+
+def test_a_config_that_is_a_directory_or_fifo_is_named_as_such(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """Both were reported as 'no such config file', which they are not."""
+    from stiction.cli import main
+
+    fifo = tmp_path / "fifo.toml"
+    os.mkfifo(fifo)
+    for path in (tmp_path, fifo):
+        assert main(["doctor", "--config", str(path)]) == 2
+        assert "not a regular file" in capsys.readouterr().err
+    assert main(["doctor", "--config", str(tmp_path / "none.toml")]) == 2
+    assert "no such config file" in capsys.readouterr().err

@@ -156,6 +156,26 @@ def test_install_unwritable_is_one_line(tmp_path: Path) -> None:
     assert "Traceback" not in proc.stderr
 
 
+@pytest.mark.parametrize("kind", ["binary", "fifo", "directory"])
+def test_install_over_something_that_is_not_a_rules_file_is_one_line(
+    tmp_path: Path, kind: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A binary file was a UnicodeDecodeError traceback; a FIFO hung the install."""
+    target = tmp_path / RULES_NAME
+    if kind == "binary":
+        target.write_bytes(b"\xbc\xff\x00")
+    elif kind == "fifo":
+        os.mkfifo(target)
+    else:
+        target.mkdir()
+    assert main(["udev", "install", "--path", str(target)]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "Traceback" not in err
+    assert ("--force" if kind == "binary" else "not a regular file") in err
+    if kind == "binary":
+        assert target.read_bytes() == b"\xbc\xff\x00"  # not replaced without --force
+
+
 @pytest.mark.skipif(os.geteuid() != 0, reason="the default path is written only as root")
 def test_as_root_dry_run_writes_nothing_to_etc(capsys: pytest.CaptureFixture[str]) -> None:
     before = Path("/etc/udev/rules.d", RULES_NAME).exists()

@@ -107,6 +107,9 @@ def test_scene_material_string_and_pressure(tmp_path: Path) -> None:
         ("t,x,y,contact\n0.5,0,0,1\n0.1,0,0,1\n", ":3: time 0.1 goes back"),
         ("t,x,y,contact\n0,0\n", ":2: expected 4 columns"),
         ("t,x,y,contact\n\xff\xfe\n", "not a text CSV"),
+        # finite but absurd: the tension overflowed and the output said inf
+        ("t,x,y,contact\n0,1e308,0,1\n0.01,-1e308,0,1\n", ":2: x = 1e+308 m is off any tablet"),
+        ("t,x,y,contact\n0,0,0,1\n0.01,0,-1001,1\n", ":3: y = -1001 m is off any tablet"),
     ],
 )
 def test_bad_traces_are_one_line_errors(
@@ -129,6 +132,7 @@ def test_bad_traces_are_one_line_errors(
         (["--param", "k"], "--param wants NAME=VALUE"),
         (["--integrator", "verlet"], "unknown integrator"),
         (["--substeps", "0"], "substeps must be >= 1"),
+        (["--substeps", "100000000"], "<= 10000"),  # ran for hours: a hang
         (["--rate", "0"], "parameter rate must be > 0"),
         (["--param", "k=1e4", "--integrator", "explicit-euler"], "use substeps >= 51"),
         (["--scene", "/nonexistent.toml"], "nonexistent.toml"),

@@ -90,3 +90,9 @@ def test_absurd_rates_are_refused() -> None:
     with pytest.raises(ParamError, match="rate must be <= 1e"):
         Params(rate=1e300)
     assert Params(rate=1e6).dt == 1e-6
+    # a daemon sleeps to each deadline: at 1e-3 Hz it ignored SIGTERM for 1000 s,
+    # at 1e-300 Hz its sleep overflowed time_t
+    for slow in (0.999, 1e-3, 1e-300):
+        with pytest.raises(ParamError, match="rate must be >= 1 Hz"):
+            Params(rate=slow)
+    assert Params(rate=1.0).dt == 1.0

@@ -11,7 +11,14 @@ import sys
 from typing import Any
 
 from stiction import protocol
-from stiction.argtypes import endpoint, non_negative_int, port, positive_float, positive_int
+from stiction.argtypes import (
+    endpoint,
+    factor,
+    non_negative_int,
+    port,
+    positive_int,
+    seconds,
+)
 from stiction.errors import StictionError
 
 
@@ -140,7 +147,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument("--json", action="store_true", help="one JSON object per frame: the wire frame")
     p.add_argument("--count", type=positive_int, help="stop after N frames")
-    p.add_argument("--seconds", type=positive_float, help="stop after S seconds")
+    p.add_argument("--seconds", type=seconds, help="stop after S seconds")
     p.add_argument("--device", action="append", help="only this device (repeatable)")
     p.add_argument("--scenes", action="store_true", help="also print scene messages")
     p.add_argument(
@@ -183,10 +190,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
     p.add_argument("--count", type=positive_int, help="stop after N frames")
-    p.add_argument("--seconds", type=positive_float, help="stop after S seconds")
+    p.add_argument("--seconds", type=seconds, help="stop after S seconds")
     p.add_argument(
         "--idle",
-        type=positive_float,
+        type=seconds,
         help="stop after S seconds without frames (once started; a quiet daemon still sends "
         "a keep-alive frame a second, so S > 1 means the daemon stopped)",
     )
@@ -209,17 +216,15 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         type=endpoint,
         help="also answer read-only control requests (snapshot, get_scene) here",
     )
-    p.add_argument("--speed", type=positive_float, default=1.0, help="pace factor (default 1)")
+    p.add_argument("--speed", type=factor, default=1.0, help="pace factor (default 1)")
     p.add_argument("--fast", action="store_true", help="as fast as possible")
     p.add_argument("--loop", type=non_negative_int, default=1, help="passes to play (0: forever)")
-    p.add_argument(
-        "--wait", type=positive_float, help="give up if no subscriber comes within S seconds"
-    )
+    p.add_argument("--wait", type=seconds, help="give up if no subscriber comes within S seconds")
     p.add_argument("--no-wait", action="store_true", help="start without waiting for a subscriber")
     p.add_argument(
         "--hold",
         nargs="?",
-        type=positive_float,
+        type=seconds,
         const=float("inf"),
         help="after the end, keep answering control requests (for S seconds, or until Ctrl-C)",
     )
@@ -255,6 +260,6 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         help="also accept WebSockets from this page origin, e.g. https://lab.example (repeatable)",
     )
     p.add_argument("--port", type=port, default=8765, help="HTTP port (0: any free port)")
-    p.add_argument("--seconds", type=positive_float, help="stop after S seconds (for scripts)")
+    p.add_argument("--seconds", type=seconds, help="stop after S seconds (for scripts)")
     _add_curve(p)
     p.set_defaults(func=_web)

@@ -32,23 +32,14 @@ class CurveKeys:
         """``server_key``: the daemon's public ``.key`` file; ``client_secret_key``:
         this client's ``.key_secret`` file (its public key must be authorised
         on the daemon)."""
-        import zmq.auth
-
-        from stiction.keyfiles import KeyFileError, check_private
+        from stiction.keyfiles import KeyFileError, load_certificate
 
         try:
-            server_public, _ = zmq.auth.load_certificate(str(server_key))
-            public, secret = zmq.auth.load_certificate(str(client_secret_key))
-        except (OSError, ValueError) as exc:
-            raise CurveKeyError(f"cannot read CURVE key: {exc}") from None
-        if not secret:
-            raise CurveKeyError(
-                f"{client_secret_key} holds no secret key (give the client's .key_secret file)"
-            )
-        try:
-            check_private(client_secret_key)
+            server_public, _ = load_certificate(server_key, secret=False)
+            public, secret = load_certificate(client_secret_key, secret=True)
         except KeyFileError as exc:
             raise CurveKeyError(str(exc)) from None
+        assert secret is not None
         return cls(server_public=server_public, public=public, secret=secret)
 
     def apply(self, sock: zmq.Socket[Any]) -> None:

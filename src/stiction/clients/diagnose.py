@@ -8,6 +8,7 @@ absence) names the case. `stiction listen` and `stiction web` say it.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from typing import Any, Literal
 
 from stiction.clients.control import ControlUnavailable, request, request_async
@@ -18,9 +19,17 @@ Silence = Literal["no-daemon", "no-device", "ended", "elsewhere", "unknown"]
 
 
 def explain(
-    pub: str, control: str | None, reply: dict[str, Any] | None, error: StictionError | None
+    pub: str,
+    control: str | None,
+    reply: dict[str, Any] | None,
+    error: StictionError | None,
+    wanted: Sequence[str] | None = None,
 ) -> tuple[Silence, str]:
-    """The case and one line for a user, from the `devices` reply or the request's error."""
+    """The case and one line for a user, from the `devices` reply or the request's error.
+
+    `wanted`: the devices the subscriber filters on (--device); a name the
+    daemon does not have explains the silence better than any endpoint does.
+    """
     if control is None:
         return "unknown", f"no frames from {pub}; is stictiond running? (no control endpoint)"
     if isinstance(error, ControlUnavailable) or (reply is None and error is None):
@@ -32,6 +41,12 @@ def explain(
     daemon = f"the daemon at {control} is up"
     if not devices:
         return "no-device", f"{daemon} but reads no device"
+    names = [str(d.get("name")) for d in devices]
+    if wanted and not set(wanted) & set(names):
+        return "elsewhere", (
+            f"{daemon} but has no device {', '.join(map(repr, wanted))} "
+            f"(--device takes one of: {', '.join(names)})"
+        )
     listed = ", ".join(f"{d.get('spec')} ({d.get('state')})" for d in devices)
     if all(d.get("state") == "ended" for d in devices):
         return "ended", f"{daemon} but its devices have ended: {listed}"
@@ -44,7 +59,12 @@ def explain(
 
 
 def why_silent(
-    pub: str, control: str | None, *, curve: CurveKeys | None = None, timeout: float = 0.5
+    pub: str,
+    control: str | None,
+    *,
+    curve: CurveKeys | None = None,
+    timeout: float = 0.5,
+    wanted: Sequence[str] | None = None,
 ) -> tuple[Silence, str]:
     if control is None:
         return explain(pub, None, None, None)
@@ -52,7 +72,7 @@ def why_silent(
         reply = request(control, "devices", timeout=timeout, curve=curve)
     except StictionError as exc:
         return explain(pub, control, None, exc)
-    return explain(pub, control, reply, None)
+    return explain(pub, control, reply, None, wanted)
 
 
 async def why_silent_async(

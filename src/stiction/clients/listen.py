@@ -77,7 +77,7 @@ def listen(
     if n == 0 and seconds is not None and (count is None or count > 0):
         from stiction.clients.diagnose import why_silent
 
-        _, why = why_silent(endpoint, control, curve=curve)
+        _, why = why_silent(endpoint, control, curve=curve, wanted=devices)
         print(f"stiction listen: no frames in {seconds:g} s: {why}", file=sys.stderr)
         return 1
     return 0

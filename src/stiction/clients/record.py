@@ -186,7 +186,7 @@ def record(
         writer.discard()  # a file without a frame helps nobody, and would look like a session
         from stiction.clients.diagnose import why_silent
 
-        _, why = why_silent(endpoint, control_endpoint, curve=curve)
+        _, why = why_silent(endpoint, control_endpoint, curve=curve, wanted=devices)
         raise NothingRecorded(
             f"no frame arrived in {time.monotonic() - t0:.1f} s, so nothing was written to "
             f"{out}: {why}"

@@ -33,7 +33,7 @@ import zlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 import numpy.typing as npt
@@ -42,9 +42,16 @@ from stiction import protocol
 from stiction.clients.columns import ContactTable
 from stiction.clients.messages import Frame, parse_message
 from stiction.errors import ProtocolError, RecordingError
+from stiction.userfiles import open_regular, shown
 
 FORMAT = "stiction-recording"
 FORMAT_VERSION = 1
+
+MAX_NPZ_BYTES = 4 << 30
+"""A recording, both as a file and with its arrays uncompressed: one pen at 100 Hz
+takes about 740 bytes a frame (a 5 s `stiction record` of synthetic:demo), so
+this is some 15 hours. A .npz is a zip, and a few megabytes of zip can claim
+terabytes of arrays; the claim is checked before anything is inflated."""
 
 
 @dataclass(frozen=True)
@@ -126,15 +133,49 @@ def write(
     return path
 
 
+def _arrays() -> tuple[str, ...]:
+    """The arrays every recording holds."""
+    return (
+        "meta",
+        *ContactTable.__dataclass_fields__,
+        "messages",
+        "message_offsets",
+        "message_topics",
+        "message_recv_t",
+    )
+
+
 def read(path: str | Path) -> Recording:
     """Load a recording; a file that is not one raises RecordingError naming it."""
     path = Path(path)
+    if not path.exists():
+        raise RecordingError(f"{shown(path)}: no such file")
+    with open_regular(path, MAX_NPZ_BYTES, RecordingError, "recording") as fh:
+        return _read(fh, path)
+
+
+def _read(fh: BinaryIO, path: Path) -> Recording:
+    if not zipfile.is_zipfile(fh):
+        raise RecordingError(
+            f"{shown(path)}: not a numpy .npz recording (not a zip file; stiction never "
+            "loads pickled data)"
+        )
+    fh.seek(0)
     try:
-        data = np.load(path, allow_pickle=False)
-    except FileNotFoundError:
-        raise RecordingError(f"{path}: no such file") from None
+        with zipfile.ZipFile(fh) as zf:
+            expanded = sum(info.file_size for info in zf.infolist())
     except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
-        raise RecordingError(f"{path}: not a numpy .npz recording ({exc})") from exc
+        raise RecordingError(f"{shown(path)}: not a numpy .npz recording ({exc})") from None
+    if expanded > MAX_NPZ_BYTES:
+        raise RecordingError(
+            f"{shown(path)}: its arrays would take {expanded} bytes; a recording is at most "
+            f"{MAX_NPZ_BYTES} (stiction.clients.recording.MAX_NPZ_BYTES)"
+        )
+    fh.seek(0)
+    try:
+        data = np.load(fh, allow_pickle=False)
+    except (OSError, ValueError, EOFError, zipfile.BadZipFile) as exc:
+        raise RecordingError(f"{shown(path)}: not a numpy .npz recording ({exc})") from None
     with data:
         try:
             meta = json.loads(str(data["meta"]))
@@ -154,8 +195,17 @@ def read(path: str | Path) -> Recording:
                 topics=data["message_topics"],
                 recv_t=data["message_recv_t"].astype(np.float64, copy=False),
             )
-        except KeyError as exc:
-            raise RecordingError(f"{path}: recording lacks the array {exc}") from None
+        except KeyError:
+            missing = [n for n in _arrays() if n not in data.files] or ["(unknown)"]
+            more = f" and {len(missing) - 3} more" if len(missing) > 3 else ""
+            raise RecordingError(
+                f"{shown(path)}: not a stiction recording (it lacks the arrays "
+                f"{', '.join(missing[:3])}{more})"
+            ) from None
+        except RecursionError:  # a meta JSON nested past the decoder's limit
+            raise RecordingError(
+                f"{shown(path)}: damaged recording (meta nested too deeply)"
+            ) from None
         except (ValueError, TypeError, OSError, EOFError, zipfile.BadZipFile, zlib.error) as exc:
             raise RecordingError(f"{path}: damaged recording ({exc})") from exc
     n = len(rec.topics)

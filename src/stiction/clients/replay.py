@@ -73,7 +73,8 @@ class Replayer:
         context: zmq.Context[Any] | None = None,
     ) -> None:
         self.rec = rec
-        self.state = ReplayState(scene=rec.meta.get("scene"))
+        scene = rec.meta.get("scene")  # the file's metadata: a scene is a table or nothing
+        self.state = ReplayState(scene=scene if isinstance(scene, dict) else None)
         self._ctx = context or zmq.Context.instance()
         self.pub = self._ctx.socket(zmq.XPUB)
         self.pub.setsockopt(zmq.SNDHWM, 100_000)
@@ -112,7 +113,12 @@ class Replayer:
                     if note[:1] == b"\x01":
                         self.state.subscribers += 1
             elif self.rep is not None and sock is self.rep:
-                self.rep.send(self._answer(self.rep.recv()))
+                payload = self.rep.recv()
+                try:
+                    reply = self._answer(payload)
+                except ProtocolError as exc:  # metadata msgpack cannot carry (an int > 2**64)
+                    reply = protocol.error_reply(str(exc))
+                self.rep.send(reply)
 
     def _answer(self, payload: bytes) -> bytes:
         try:
@@ -131,7 +137,10 @@ class Replayer:
             params = meta.get("params")
             if not isinstance(params, dict):
                 return protocol.error_reply("the recording holds no parameters")
-            return protocol.ok_reply(**params)
+            # The metadata is the file's: its keys must not replace the reply's own.
+            return protocol.ok_reply(
+                **{k: v for k, v in params.items() if isinstance(k, str) and k not in ("v", "ok")}
+            )
         if op == "devices":
             return protocol.ok_reply(devices=self._devices())
         if op == "stats":
@@ -146,8 +155,13 @@ class Replayer:
     def _devices(self) -> list[dict[str, Any]]:
         """The recorded devices, with the replay's own state: "open" while it plays,
         "ended" once it has, so a client can tell a finished replay from an outage."""
-        listed = [d for d in self.rec.meta.get("devices") or [] if isinstance(d, dict)]
-        names = {d.get("name") for d in listed}
+        recorded = self.rec.meta.get("devices")
+        listed = [  # as the daemon described them; anything else in the file is left out
+            d
+            for d in (recorded if isinstance(recorded, list) else [])
+            if isinstance(d, dict) and isinstance(d.get("name"), str)
+        ]
+        names = {d["name"] for d in listed}
         listed += [  # a recording made without the control endpoint lists none
             {"name": n, "spec": "replay", "kind": None, "surface_m": None, "mapping": None}
             for n in self.state.last_frames

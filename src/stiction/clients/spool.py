@@ -75,6 +75,7 @@ from stiction.clients import recording
 from stiction.clients.columns import ContactTable
 from stiction.clients.messages import Frame, Message, SceneMessage
 from stiction.errors import RecordingError
+from stiction.userfiles import open_regular, shown
 
 log = logging.getLogger("stiction.clients.spool")
 
@@ -87,6 +88,7 @@ FLUSH_EVERY = 1.0
 _MAGIC = b"STICTION-SPOOL\n\x01"  # format name, then the spool format version (1)
 _HEAD = struct.Struct("<4sIQI")  # tag, header bytes, body bytes, CRC-32 of header + body
 _TAG = b"SREC"
+_NO_LIMIT = 1 << 62  # a spool is as long as the session was
 _MAX_HEADER = 64 << 20
 _BLOCK = 1 << 20
 
@@ -400,7 +402,7 @@ def _records(
                 return
         try:
             header = json.loads(head)
-        except ValueError:
+        except (ValueError, RecursionError):  # damaged, or nested past the decoder's limit
             return
         if not isinstance(header, dict):
             return
@@ -595,12 +597,11 @@ def _assemble(fh: IO[bytes], summary: Summary, out: Path, *, recovered: bool) ->
 
 
 def _open(path: Path) -> IO[bytes]:
-    try:
-        return path.open("rb")
-    except FileNotFoundError:
-        raise RecordingError(f"{path}: no such spool") from None
-    except OSError as exc:
-        raise RecordingError(f"{path}: cannot read the spool ({_why(exc)})") from None
+    """The spool, opened only if it is a regular file: a FIFO given to --recover must
+    not block the recorder (the spool's size is bounded by the disk, not here)."""
+    if not path.exists():
+        raise RecordingError(f"{shown(path)}: no such spool")
+    return open_regular(path, _NO_LIMIT, RecordingError, "spool")
 
 
 def assemble(spool: str | Path, out: str | Path, *, recovered: bool = False) -> Summary:

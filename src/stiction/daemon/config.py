@@ -17,7 +17,10 @@ from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, s
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
-from stiction.errors import StictionError
+from stiction.errors import ParamError, StictionError
+from stiction.scene.load import MAX_DISPLAY_PX, MAX_FRICTION, MAX_NUMBER
+from stiction.sim.integrators import INTEGRATORS
+from stiction.sim.params import Params
 from stiction.tomlcheck import FieldPath, TomlReader
 from stiction.userfiles import read_regular_text
 
@@ -127,6 +130,11 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     s = r.table(data.get("sim", {}), ("sim",), _SIM_KEYS)
     if "integrator" in s:
         opts.integrator = r.string(s["integrator"], ("sim", "integrator"))
+        if opts.integrator not in INTEGRATORS:  # else refused later, without file and line
+            r.fail(
+                ("sim", "integrator"),
+                f"unknown integrator {opts.integrator!r}; known: {', '.join(INTEGRATORS)}",
+            )
     if "substeps" in s:
         wrong = problem("substeps", s["substeps"])
         if wrong is not None:
@@ -137,6 +145,17 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         for k, v in s.items()
         if k not in ("integrator", "substeps")
     }
+    # The bounds a scene file and set_params have, and the simulator's own
+    # check, here too: else a bad default is refused later without its line.
+    for k, v in opts.params.items():
+        limit = MAX_FRICTION if k in ("mu_s", "mu_k") else MAX_NUMBER
+        if abs(v) > limit:
+            r.fail(("sim", k), f"must be at most {limit:g}, got {v:g}")
+    try:
+        Params.from_mapping(opts.params)
+    except ParamError as exc:
+        one = len(opts.params) == 1  # then the parameter at fault is known
+        r.fail(("sim", next(iter(opts.params))) if one else ("sim",), str(exc))
 
     c = r.table(data.get("curve", {}), ("curve",), _CURVE_KEYS)
     required = c.get("required", False)
@@ -155,6 +174,30 @@ def load_options(path: Path, base: Options | None = None) -> Options:
         r.fail(("devices",), "must be an array of [[devices]] tables")
     opts.devices = [_device(r, i, raw) for i, raw in enumerate(devices)]
     return opts
+
+
+MIN_SURFACE_M = 1e-3
+"""A surface (or an area of one) at least 1 mm a side: smaller is a typo, and it
+scaled the pointer to 1e304 px."""
+MAX_SURFACE_M = 10.0
+"""At most 10 m, as `--size-mm` says."""
+MAX_GAIN = 1000.0
+"""Relative mapping: a thousand screen widths per surface width is far past any use."""
+
+
+def _surface_words(key: str, what: str) -> str:
+    if key.endswith("_mm"):
+        where = ", x and y within +-10000" if "x, y" in what else ""
+        return f"must be {what} in millimetres, width and height 1 to 10000{where}"
+    where = ", x and y within +-10" if "x, y" in what else ""
+    return f"must be {what} in metres, width and height 0.001 to 10{where}"
+
+
+def _gain(r: _Reader, value: Any, where: FieldPath) -> float:
+    gain = r.number(value, where)
+    if gain > MAX_GAIN:
+        r.fail(where, f"must be at most {MAX_GAIN:g}, got {gain:g}")
+    return gain
 
 
 def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
@@ -203,17 +246,24 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
         x, y, w, h = r.numbers(t[key], (*where, key), 4)
         if w <= 0 or h <= 0:
             r.fail((*where, key), "width and height must be positive")
+        # Bounded like a display (pixels) or a tablet (metres): a width of 1e-300
+        # or 1e300 put the pointer at 1e304 px.
+        if key == "screen_area":
+            if not all(abs(v) <= MAX_DISPLAY_PX for v in (x, y, w, h)) or min(w, h) < 1:
+                r.fail((*where, key), f"must be pixels: x, y within +-{MAX_DISPLAY_PX}, "
+                       f"width and height 1 to {MAX_DISPLAY_PX}")  # fmt: skip
+        else:
+            m = [v * scale for v in (x, y, w, h)]
+            if not all(abs(v) <= MAX_SURFACE_M for v in m) or min(m[2:]) < MIN_SURFACE_M:
+                r.fail((*where, key), _surface_words(key, "x, y, width and height"))
         return (x * scale, y * scale, w * scale, h * scale)
 
     size = None
     if given := one_of("size_mm", "surface_size"):
         key, scale = given
         sw, sh = (v * scale for v in r.numbers(t[key], (*where, key), 2))
-        if sw <= 0 or sh <= 0 or sw > 10 or sh > 10:
-            unit = (
-                "millimetres (0 < size <= 10000)" if key == "size_mm" else "metres (0 < size <= 10)"
-            )
-            r.fail((*where, key), f"must be [width, height] in {unit}")
+        if not all(MIN_SURFACE_M <= v <= MAX_SURFACE_M for v in (sw, sh)):
+            r.fail((*where, key), _surface_words(key, "[width, height]"))
         size = (sw, sh)
     area = one_of("surface_area_mm", "surface_area")
     grab = t.get("grab", False)
@@ -225,7 +275,7 @@ def _device(r: _Reader, index: int, raw: Any) -> DeviceConfig:
         rotate=int(rotate),
         surface_area=rect(*area) if area else None,
         screen_area=rect("screen_area", 1.0) if "screen_area" in t else None,
-        gain=r.number(t["gain"], (*where, "gain")) if "gain" in t else 1.0,
+        gain=_gain(r, t["gain"], (*where, "gain")) if "gain" in t else 1.0,
     )
     mapping_given = "mapping" in t
     return DeviceConfig(

@@ -18,10 +18,13 @@ from typing import TYPE_CHECKING
 from stiction import __version__
 from stiction.argtypes import (
     endpoint,
+    hwm,
     int_range,
     non_negative_float,
     positive_float,
     positive_int,
+    seconds,
+    seconds_or_zero,
 )
 from stiction.errors import StictionError
 
@@ -58,9 +61,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="real: live, at the tick rate; virtual: replay as fast as possible and exit",
     )
     p.add_argument("--rate", type=positive_float, metavar="HZ", help="tick rate (default 100)")
-    p.add_argument(
-        "--seconds", type=positive_float, metavar="S", help="stop after S seconds of ticks"
-    )
+    p.add_argument("--seconds", type=seconds, metavar="S", help="stop after S seconds of ticks")
     p.add_argument(
         "--wait-subscribers",
         type=positive_int,
@@ -70,15 +71,15 @@ def build_parser() -> argparse.ArgumentParser:
     )
     p.add_argument(
         "--wait-timeout",
-        type=positive_float,
+        type=seconds,
         metavar="S",
         help="give up waiting for subscribers after S seconds and start (default 30)",
     )
     p.add_argument("--integrator", help="simulator integrator (see stiction simulate)")
-    p.add_argument("--hwm", type=positive_int, help="PUB high-water mark per subscriber (messages)")
+    p.add_argument("--hwm", type=hwm, help="PUB high-water mark per subscriber (messages)")
     p.add_argument(
         "--keepalive",
-        type=non_negative_float,
+        type=seconds_or_zero,
         metavar="S",
         help="seconds between frames of a device with nothing new (default 1; 0: every tick)",
     )

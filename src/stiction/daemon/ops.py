@@ -100,6 +100,8 @@ def _set_scene(d: Controlled, args: dict[str, Any]) -> Apply:
         path = args["path"]
         if not isinstance(path, str):
             raise ProtocolError("set_scene 'path' must be a string")
+        if not path:  # Path("") is ".": the error would name a directory nobody gave
+            raise ProtocolError("set_scene 'path' is empty; give the scene file's path")
         scene = d.load_scene_file(Path(path))
     pipeline = d.prepare_scene(scene)
 

@@ -17,10 +17,12 @@ from pathlib import Path
 from typing import Any
 
 from stiction import protocol
+from stiction.argtypes import MAX_HWM, MAX_SECONDS
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.security import CurveConfig
 from stiction.errors import StictionError
 from stiction.scene.load import DEFAULT_DISPLAY
+from stiction.sim.integrators import MAX_SUBSTEPS
 
 CLOCKS = ("real", "virtual")
 MAX_SPIN_MS = 5.0
@@ -82,13 +84,22 @@ Rule = Callable[[Any], bool]
 RULES: dict[str, tuple[Rule, str]] = {
     "rate": (lambda v: _number(v) and v > 0, "must be a positive finite number"),
     "clock": (lambda v: v in CLOCKS, "must be 'real' or 'virtual'"),
-    "hwm": (lambda v: _whole(v) and v >= 1, "must be a whole number of messages, 1 or more"),
-    "substeps": (lambda v: _whole(v) and v >= 1, "must be a whole number >= 1"),
+    "hwm": (
+        lambda v: _whole(v) and 1 <= v <= MAX_HWM,
+        f"must be a whole number of messages, 1 to {MAX_HWM}",
+    ),
+    "substeps": (
+        lambda v: _whole(v) and 1 <= v <= MAX_SUBSTEPS,
+        f"must be a whole number from 1 to {MAX_SUBSTEPS}",
+    ),
     "late_threshold_ms": (
         lambda v: v is None or (_number(v) and v > 0),
         "must be a positive finite number",
     ),
-    "keepalive": (lambda v: _number(v) and v >= 0, "must be 0 (every tick) or more seconds"),
+    "keepalive": (
+        lambda v: _number(v) and 0 <= v <= MAX_SECONDS,
+        f"must be 0 (every tick) or more seconds, at most {MAX_SECONDS:g}",
+    ),
     "spin_ms": (
         lambda v: _number(v) and 0 <= v <= MAX_SPIN_MS,
         f"must be from 0 to {MAX_SPIN_MS:g} (milliseconds)",

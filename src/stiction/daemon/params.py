@@ -15,6 +15,7 @@ from typing import Any
 from stiction.errors import ParamError
 from stiction.scene.load import MAX_FRICTION, MAX_NUMBER
 from stiction.scene.model import Scene
+from stiction.userfiles import shown
 
 MATERIAL_PARAMS = ("mu_s", "mu_k", "k", "m", "C_l")
 GLOBAL_PARAMS = (*MATERIAL_PARAMS, "g")
@@ -32,9 +33,9 @@ def apply_params(
         if key == "rate":
             raise ParamError("rate cannot change while running; set daemon.rate in the config")
         if key not in allowed:
-            raise ParamError(f"unknown parameter {key!r}; known: {', '.join(allowed)}")
+            raise ParamError(f"unknown parameter {shown(repr(key))}; known: {', '.join(allowed)}")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ParamError(f"parameter {key} must be a number, got {value!r}")
+            raise ParamError(f"parameter {key} must be a number, got {shown(repr(value))}")
         # The same bounds a scene file has: a huge integer must not overflow float().
         limit = MAX_FRICTION if key in ("mu_s", "mu_k") else MAX_NUMBER
         if isinstance(value, int) and abs(value) > limit:
@@ -50,7 +51,7 @@ def apply_params(
     else:
         if material not in materials:
             known = ", ".join(sorted(materials)) or "none"
-            raise ParamError(f"unknown material {material!r}; the scene has: {known}")
+            raise ParamError(f"unknown material {shown(repr(material))}; the scene has: {known}")
         targets = [material]
     per_material = {k: v for k, v in clean.items() if k in MATERIAL_PARAMS}
     for name in targets:

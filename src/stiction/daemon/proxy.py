@@ -20,14 +20,13 @@ from stiction.daemon.security import CurveConfig, Guard, SecurityError
 log = logging.getLogger("stiction.daemon.proxy")
 
 
-def _load(path: Path) -> tuple[bytes, bytes | None]:
-    import zmq.auth
+def _load(path: Path, *, secret: bool = False) -> tuple[bytes, bytes | None]:
+    from stiction.keyfiles import KeyFileError, load_certificate
 
     try:
-        public, secret = zmq.auth.load_certificate(str(path))
-    except (OSError, ValueError) as exc:
-        raise SecurityError(f"cannot read key {path}: {exc}") from None
-    return public, secret
+        return load_certificate(path, secret=secret)
+    except KeyFileError as exc:
+        raise SecurityError(str(exc)) from None
 
 
 def run_proxy(
@@ -52,9 +51,8 @@ def run_proxy(
             if server_keys:
                 if client_key is None:
                     raise SecurityError("--server-key needs --client-key (this proxy's key pair)")
-                public, secret = _load(client_key)
-                if secret is None:
-                    raise SecurityError(f"{client_key} holds no secret key")
+                public, secret = _load(client_key, secret=True)
+                assert secret is not None
                 xsub.curve_publickey = public
                 xsub.curve_secretkey = secret
                 xsub.curve_serverkey = _load(server_keys[i])[0]

@@ -25,11 +25,15 @@ from stiction.daemon.config import load_options
 from stiction.daemon.device_set import DeviceSet
 from stiction.daemon.options import Options
 from stiction.daemon.wake import Waker
-from stiction.errors import StictionError
+from stiction.errors import SceneError, StictionError
 from stiction.scene.backend import SimulatorBackend
 from stiction.scene.load import default_scene, load_scene, parse_scene
 from stiction.scene.model import Scene
 from stiction.scene.pipeline import Pipeline
+
+SNAPSHOT_ROOM = 64 << 10
+"""Bytes left beside a scene in a message for the latest frame of each device: a
+snapshot carries both, and clients refuse any message over MAX_MESSAGE_BYTES."""
 
 log = logging.getLogger("stiction.daemon")  # the loop's logger: log lines keep their name
 
@@ -64,7 +68,7 @@ class SceneState:
             "rate": opts.rate,
         }
         scene = load_scene(opts.scene) if opts.scene else default_scene(opts.display)
-        self.pipeline = Pipeline(scene, self.backend, self.defaults)
+        self.pipeline = self._checked(Pipeline(scene, self.backend, self.defaults))
         self.counters = {"scene_loads": 1, "scene_errors": 0, "reloads": 0}
         self.generation = 0
         """Counts pipeline swaps (a change prepared against an older pipeline is redone)."""
@@ -84,16 +88,40 @@ class SceneState:
         number. A refused scene is counted and leaves the running one untouched.
         """
         try:
-            pipeline = Pipeline(
-                scene, self.backend, self.defaults if defaults is None else defaults
+            pipeline = self._checked(
+                Pipeline(scene, self.backend, self.defaults if defaults is None else defaults)
             )
-            wire = pipeline.wire()
-            protocol.encode(protocol.scene_message(wire, max(self._last_tick(), 0)))
-            protocol.encode(protocol.scene_reply(wire, scene.text))
         except StictionError:
             if count:
                 self.counters["scene_errors"] += 1
             raise
+        return pipeline
+
+    def _checked(self, pipeline: Pipeline) -> Pipeline:
+        """`pipeline`, once every material's parameters suit the integrator (else ParamError):
+        an explicit integrator with a stiff material (set_params k=1e4) was swapped in
+        and then failed every tick; and once what it will publish fits the wire."""
+        for params in (*pipeline.params.values(), *pipeline.frictionless.values()):
+            self.backend.check(params)
+        wire = pipeline.wire()
+        scene = pipeline.scene
+        sizes = (
+            # the largest tick a message may carry: its msgpack size is the bound
+            ("scene message", protocol.scene_message(wire, 2**63 - 1), SNAPSHOT_ROOM),
+            ("get_scene reply", protocol.scene_reply(wire, scene.text), 0),
+        )
+        for what, message, room in sizes:
+            size = len(protocol.encode(message))
+            if size > protocol.MAX_MESSAGE_BYTES - room:
+                raise SceneError(
+                    f"{scene.source}: its {what} would be {size} bytes; clients accept "
+                    f"{protocol.MAX_MESSAGE_BYTES} (docs/protocol.md), less {room} for frames "
+                    "beside it: use fewer polygon points or regions"
+                    if room
+                    else f"{scene.source}: its {what} would be {size} bytes; clients accept "
+                    f"{protocol.MAX_MESSAGE_BYTES} (docs/protocol.md): use fewer polygon "
+                    "points or regions"
+                )
         return pipeline
 
     def load_scene_text(self, text: str, source: str) -> Scene:

@@ -43,6 +43,45 @@ class CurveConfig:
         return self.secret_key is not None and self.authorized_keys is not None
 
 
+class AuthorizedKeys:
+    """The clients' public keys in the authorised folder, each read by stiction's checked loader.
+
+    zmq.auth's own folder loader opens every ``*.key`` as it is (a FIFO there
+    blocked the daemon's start beyond SIGTERM) and drops the whole folder when
+    one file is damaged, locking every client out. Here a file that is not a
+    small regular key file is skipped with a warning naming it; the others
+    stay authorised. ZeroMQ's ZAP thread asks `callback` about each peer.
+    """
+
+    def __init__(self, folder: Path) -> None:
+        self.folder = folder
+        self.keys: frozenset[bytes] = frozenset()
+
+    def reload(self) -> int:
+        """Read the folder again; return how many keys are authorised now."""
+        from stiction.keyfiles import KeyFileError, load_certificate
+
+        keys: set[bytes] = set()
+        try:
+            paths = sorted(self.folder.glob("*.key"))
+        except OSError as exc:
+            log.warning("authorized_keys_unreadable folder=%s error=%s", self.folder, exc)
+            return len(self.keys)  # keep the clients that were authorised
+        for path in paths:
+            try:
+                public, _ = load_certificate(path, secret=False)
+            except KeyFileError as exc:
+                log.warning("authorized_key_skipped error=%s", exc)
+                continue
+            keys.add(public)
+        self.keys = frozenset(keys)
+        return len(keys)
+
+    def callback(self, domain: str, key: bytes) -> bool:
+        """ZAP: may the peer with this Z85 public key connect?"""
+        return key in self.keys
+
+
 class Guard:
     """Applies the policy to each socket before it binds."""
 
@@ -50,7 +89,21 @@ class Guard:
         self.ctx = ctx
         self.curve = curve
         self._auth: Any = None
+        self._authorized: AuthorizedKeys | None = None
         self._keys: tuple[bytes, bytes] | None = None
+        # Keys that are given are checked now, not when an endpoint first needs
+        # them: a typo in a key path on a loopback daemon was silently ignored
+        # until the day the daemon was moved to a network address.
+        if (curve.secret_key is None) != (curve.authorized_keys is None):
+            raise SecurityError(
+                "give both a CURVE secret key and a folder of authorised keys "
+                "(--curve-secret-key and --curve-authorized, or [curve] secret_key and "
+                "authorized_keys), or neither"
+            )
+        if curve.secret_key is not None:
+            self._keys = self._load_server_keys()
+        if curve.authorized_keys is not None and not curve.authorized_keys.is_dir():
+            raise SecurityError(f"authorized_keys {curve.authorized_keys} is not a directory")
 
     def bind(self, sock: zmq.Socket[Any], endpoint: str, what: str) -> None:
         local = is_local_endpoint(endpoint)
@@ -68,8 +121,8 @@ class Guard:
             raise SecurityError(f"cannot bind {what} endpoint {endpoint}: {exc}") from None
 
     def _apply_curve(self, sock: zmq.Socket[Any]) -> None:
-        if self._keys is None:
-            self._keys = self._load_server_keys()
+        assert self._keys is not None  # configured: loaded in __init__
+        if self._auth is None:
             self._start_authenticator()
         public, secret = self._keys
         sock.zap_domain = ZAP_DOMAIN.encode()
@@ -78,23 +131,14 @@ class Guard:
         sock.curve_server = True
 
     def _load_server_keys(self) -> tuple[bytes, bytes]:
-        import zmq.auth
-
-        from stiction.keyfiles import KeyFileError, check_private
+        from stiction.keyfiles import KeyFileError, load_certificate
 
         assert self.curve.secret_key is not None
         try:
-            public, secret = zmq.auth.load_certificate(str(self.curve.secret_key))
-        except (OSError, ValueError) as exc:
-            raise SecurityError(f"cannot read CURVE key {self.curve.secret_key}: {exc}") from None
-        if not secret:
-            raise SecurityError(
-                f"{self.curve.secret_key} holds no secret key (use the .key_secret file)"
-            )
-        try:
-            check_private(self.curve.secret_key)
+            public, secret = load_certificate(self.curve.secret_key, secret=True)
         except KeyFileError as exc:
             raise SecurityError(str(exc)) from None
+        assert secret is not None
         return public, secret
 
     def _start_authenticator(self) -> None:
@@ -104,17 +148,19 @@ class Guard:
         assert keys_dir is not None
         if not keys_dir.is_dir():
             raise SecurityError(f"authorized_keys {keys_dir} is not a directory")
+        self._authorized = AuthorizedKeys(keys_dir)
+        n = self._authorized.reload()
         auth = ThreadAuthenticator(self.ctx, log=logging.getLogger("stiction.daemon.zap"))
         auth.start()
-        auth.configure_curve(domain=ZAP_DOMAIN, location=str(keys_dir))
+        auth.configure_curve_callback(domain=ZAP_DOMAIN, credentials_provider=self._authorized)
         self._auth = auth
-        n = len(list(keys_dir.glob("*.key")))
         log.info("curve enabled authorized_keys=%s clients=%d", keys_dir, n)
 
     def reload_keys(self) -> None:
         """Re-read the authorised keys (SIGHUP): added or removed clients take effect."""
-        if self._auth is not None and self.curve.authorized_keys is not None:
-            self._auth.configure_curve(domain=ZAP_DOMAIN, location=str(self.curve.authorized_keys))
+        if self._authorized is not None:
+            n = self._authorized.reload()
+            log.info("curve reloaded authorized_keys=%s clients=%d", self._authorized.folder, n)
 
     def close(self) -> None:
         if self._auth is not None:

@@ -11,7 +11,14 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from stiction.argtypes import endpoint, port
+
 DEFAULT_PORT = 8766
+
+MAX_SIMULATED = 1000
+"""Simulated participants in one run: each takes about 10 s on paper-study1
+(`stiction experiment simulate paper-study1 --participants 2`: 19 s), so this
+is some three hours; 1e11 was a run that never ends."""
 
 
 def _study(args: argparse.Namespace) -> Any:
@@ -30,6 +37,13 @@ def _positive_int(text: str) -> int:
         raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
     if value < 1:
         raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
+    return value
+
+
+def _participants(text: str) -> int:
+    value = _positive_int(text)
+    if value > MAX_SIMULATED:
+        raise argparse.ArgumentTypeError(f"must be at most {MAX_SIMULATED}, got {value}")
     return value
 
 
@@ -158,11 +172,18 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     study_arg(r)
     r.add_argument("--participant", required=True, metavar="ID", help="participant ID")
     r.add_argument("--out", metavar="DIR", help="data folder (default experiment-data/STUDY)")
-    r.add_argument("--pub", default=protocol.DEFAULT_PUB, help="daemon publisher endpoint")
-    r.add_argument("--control", default=protocol.DEFAULT_CONTROL, help="daemon control endpoint")
+    r.add_argument(
+        "--pub", type=endpoint, default=protocol.DEFAULT_PUB, help="daemon publisher endpoint"
+    )
+    r.add_argument(
+        "--control",
+        type=endpoint,
+        default=protocol.DEFAULT_CONTROL,
+        help="daemon control endpoint",
+    )
     r.add_argument("--device", help="the device to follow (default: the first one)")
     r.add_argument("--host", default="127.0.0.1", help="page address (default loopback)")
-    r.add_argument("--port", type=int, default=DEFAULT_PORT, help=f"page port ({DEFAULT_PORT})")
+    r.add_argument("--port", type=port, default=DEFAULT_PORT, help=f"page port ({DEFAULT_PORT})")
     r.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     r.set_defaults(func=_run)
 
@@ -173,7 +194,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "stictiond (virtual clock) and answers like a person; writes the files of `run`.",
     )
     study_arg(s)
-    s.add_argument("--participants", type=_positive_int, required=True, metavar="N")
+    s.add_argument("--participants", type=_participants, required=True, metavar="N")
     s.add_argument("--out", required=True, metavar="DIR", help="data folder")
     s.add_argument("--record", action="store_true", help="also save every stimulus's frames")
     s.set_defaults(func=_simulate)

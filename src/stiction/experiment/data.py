@@ -19,6 +19,10 @@ from pathlib import Path
 from typing import Any
 
 from stiction.errors import StictionError
+from stiction.userfiles import read_regular_text
+
+MAX_TRIALS_BYTES = 64 << 20
+"""One participant's trial CSV: thousands of rows; 64 MiB is far beyond one."""
 
 COLUMNS = (
     "participant",
@@ -132,20 +136,24 @@ def read_trials(paths: Iterable[str | Path]) -> list[dict[str, Any]]:
         path = Path(p)
         files = sorted(path.glob("*.csv")) if path.is_dir() else [path]
         for f in files:
-            try:
-                text = f.read_text(encoding="utf-8")
-            except OSError as exc:
-                raise DataError(f"{f}: cannot read: {exc.strerror or exc}") from None
+            # A participant's file is resumed from: read as a bounded regular file,
+            # and a damaged one (binary, a stray NUL) is a DataError, not a
+            # UnicodeDecodeError or csv.Error traceback in front of the participant.
+            text = read_regular_text(f, MAX_TRIALS_BYTES, DataError, "trial CSV")
             if text and not text.endswith("\n"):
                 text = text[: text.rfind("\n") + 1]
             reader = csv.DictReader(io.StringIO(text))
-            if tuple(reader.fieldnames or ())[: len(COLUMNS) - 4] != COLUMNS[: len(COLUMNS) - 4]:
-                raise DataError(f"{f}: not a stiction experiment CSV (unexpected header)")
-            for n, row in enumerate(reader, start=2):
-                try:
-                    rows.append(_convert(row))
-                except ValueError:
-                    raise DataError(f"{f}:{n}: malformed row") from None
+            try:
+                header = tuple(reader.fieldnames or ())
+                if header[: len(COLUMNS) - 4] != COLUMNS[: len(COLUMNS) - 4]:
+                    raise DataError(f"{f}: not a stiction experiment CSV (unexpected header)")
+                for n, row in enumerate(reader, start=2):
+                    try:
+                        rows.append(_convert(row))
+                    except (ValueError, TypeError):
+                        raise DataError(f"{f}:{n}: malformed row") from None
+            except csv.Error as exc:
+                raise DataError(f"{f}:{max(reader.line_num, 1)}: not valid CSV: {exc}") from None
     return rows
 
 
@@ -172,8 +180,9 @@ def write_sidecar(path: Path, info: Mapping[str, Any]) -> None:
 
 def read_sidecar(path: Path) -> dict[str, Any]:
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        text = read_regular_text(path, MAX_TRIALS_BYTES, DataError, "sidecar")
+        data = json.loads(text)
+    except (ValueError, RecursionError) as exc:  # RecursionError: JSON nested thousands deep
         raise DataError(f"{path}: cannot read the sidecar: {exc}") from None
     if not isinstance(data, dict):
         raise DataError(f"{path}: the sidecar is not a JSON object")

@@ -41,6 +41,7 @@ from stiction.clients.aio import stop_on_signals
 from stiction.errors import ProtocolError, StictionError
 from stiction.experiment.runner import AnswerError, Session
 from stiction.experiment.stimulus import TOUCHING
+from stiction.userfiles import shown
 
 log = logging.getLogger("stiction.experiment")
 STATIC = Path(__file__).resolve().parent / "static"
@@ -192,15 +193,29 @@ class LiveRunner:
             async for msg in ws:
                 if msg.type != WSMsgType.TEXT:
                     continue
-                try:
-                    button = json.loads(msg.data).get("press")
-                    self.session.press(str(button))
-                except (AnswerError, ValueError, AttributeError) as exc:
-                    await ws.send_str(json.dumps({"type": "refused", "error": str(exc)}))
+                refused = self.press(msg.data)
+                if refused is not None:
+                    await ws.send_str(json.dumps({"type": "refused", "error": refused}))
                 self.changed.set()
         finally:
             self.pages.discard(ws)
         return ws
+
+    def press(self, data: str) -> str | None:
+        """Apply a page's ``{"press": BUTTON}``; the reason it was refused, or None.
+
+        The page is the participant's, but its message is still input: JSON that
+        is not an object, or nested past the decoder's recursion limit (a 4 KiB
+        message of brackets), is refused like a wrong button.
+        """
+        try:
+            message = json.loads(data)
+            if not isinstance(message, dict):
+                raise ValueError(f"expected a JSON object, got {type(message).__name__}")
+            self.session.press(str(message.get("press")))
+        except (AnswerError, ValueError, RecursionError) as exc:
+            return shown(str(exc))
+        return None
 
     def _check_token(self, request: web.Request) -> None:
         given = request.query.get("token", "")

@@ -16,8 +16,16 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import non_negative_float, non_negative_int, positive_float, positive_int
+from stiction.argtypes import (
+    finite_float,
+    int_range,
+    non_negative_float,
+    non_negative_int,
+    positive_float,
+    positive_int,
+)
 from stiction.errors import StictionError
+from stiction.experiment.study import MAX_TRIALS
 
 EXTRA_MODULES = ("numpy", "scipy", "pandas", "pingouin", "matplotlib", "questplus")
 EXTRA_HINT = "pip install 'stiction[experiment]'"
@@ -41,6 +49,17 @@ def _int_list(text: str) -> list[int]:
     if not values or min(values) < 1:
         raise argparse.ArgumentTypeError(f"expected counts of at least 1, got {text!r}")
     return values
+
+
+MAX_POWER_DRAWS = 20_000_000
+"""Simulations x participants x levels in one `power` design: 160 MB per float64
+array. The default (500 x 20 x 5) is 50,000; 5,000 simulations took 0.5 s."""
+
+MAX_BOOTSTRAP = 100_000
+"""Bootstrap resamples of one fit: the default is 1,000."""
+
+MAX_QUEST_SIMULATIONS = 1000
+"""QUEST+ runs per method in --compare; each trial costs about 50 ms."""
 
 
 def _unit(text: str) -> float:
@@ -114,6 +133,13 @@ def _power(args: argparse.Namespace) -> int:
     observer = power.Observer(args.pse, args.jnd, args.guess, args.lapse)
     people = args.participants or [5, PAPER_PARTICIPANTS, 2 * PAPER_PARTICIPANTS]
     reps = args.repetitions or sorted({5, design.repetitions, 2 * design.repetitions})
+    draws = args.simulations * max(people) * len(design.levels)
+    if draws > MAX_POWER_DRAWS:  # 1e11 simulations asked numpy for 3.6 TiB: MemoryError
+        raise StictionError(
+            f"--simulations {args.simulations} x {max(people)} participants x "
+            f"{len(design.levels)} levels = {draws} simulated observers' answers; at most "
+            f"{MAX_POWER_DRAWS} (fewer --simulations or --participants)"
+        )
     table = power.design_table(
         observer,
         design.levels,
@@ -211,7 +237,11 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     an.add_argument("--json", action="store_true", help="print the results as JSON")
     an.add_argument("--seed", type=non_negative_int, default=0, help="bootstrap seed (0)")
     an.add_argument(
-        "--bootstrap", type=positive_int, default=1000, metavar="N", help="resamples (1000)"
+        "--bootstrap",
+        type=int_range(1, MAX_BOOTSTRAP),
+        default=1000,
+        metavar="N",
+        help="resamples (1000)",
     )
     an.set_defaults(func=_analyze)
 
@@ -226,7 +256,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "participant: the trials each needs for the same precision.",
     )
     pw.add_argument("study", metavar="STUDY", help="study TOML, or paper-study1")
-    pw.add_argument("--pse", type=float, default=0.2, help="observer's PSE in mu_s (0.2)")
+    pw.add_argument("--pse", type=finite_float, default=0.2, help="observer's PSE in mu_s (0.2)")
     pw.add_argument("--jnd", type=positive_float, default=0.1, help="observer's JND (0.1)")
     pw.add_argument("--guess", type=_unit, default=0.0, help="guess rate (0)")
     pw.add_argument("--lapse", type=_unit, default=0.02, help="lapse rate (0.02)")
@@ -248,11 +278,14 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     pw.add_argument("--seed", type=non_negative_int, default=1, help="simulation seed (1)")
     pw.add_argument("--compare", action="store_true", help="also QUEST+ vs constant stimuli")
     pw.add_argument(
-        "--max-trials", type=positive_int, default=120, help="--compare: trials per run (120)"
+        "--max-trials",
+        type=int_range(1, MAX_TRIALS),
+        default=120,
+        help="--compare: trials per run (120)",
     )
     pw.add_argument(
         "--quest-simulations",
-        type=positive_int,
+        type=int_range(1, MAX_QUEST_SIMULATIONS),
         default=40,
         help="--compare: simulated runs per method (40; QUEST+ costs ~50 ms a trial)",
     )

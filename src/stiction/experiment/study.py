@@ -11,12 +11,12 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from stiction.errors import StictionError
+from stiction.tomlcheck import TomlReader, unknown_key
 from stiction.userfiles import read_regular_text
 
 PRESET_DIR = Path(__file__).resolve().parent / "presets"
@@ -70,7 +70,12 @@ class Study:
         """The same study with fewer or more repetitions (quick pilots, tests)."""
         if repetitions < 1:
             raise StudyError(f"repetitions must be at least 1, got {repetitions}")
-        return dataclasses.replace(self, repetitions=repetitions)
+        changed = dataclasses.replace(self, repetitions=repetitions)
+        if changed.n_trials > MAX_TRIALS:  # the bound a study file has, for --repetitions too
+            raise StudyError(
+                f"--repetitions {repetitions}: {changed.n_trials} trials; at most {MAX_TRIALS}"
+            )
+        return changed
 
 
 _SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], bool]]] = {
@@ -101,8 +106,17 @@ _SCHEMA: dict[str, dict[str, tuple[type | tuple[type, ...], bool]]] = {
 _REQUIRED_TABLES = ("study", "standard", "comparison")
 
 
+class _FieldError(StudyError):
+    """A StudyError about one field; parse_study adds the field's line to it."""
+
+    def __init__(self, where: str, field: str, message: str) -> None:
+        super().__init__(f"{where}: {field}: {message}")
+        self.field = field
+        self.message = message
+
+
 def _fail(where: str, field: str, message: str) -> StudyError:
-    return StudyError(f"{where}: {field}: {message}")
+    return _FieldError(where, field, message)
 
 
 def _number(where: str, field: str, value: Any, *, lo: float, hi: float = math.inf) -> float:
@@ -124,9 +138,7 @@ def _check_shape(where: str, data: dict[str, Any]) -> None:
         keys = _SCHEMA[table]
         for key, item in value.items():
             if key not in keys:
-                raise _fail(
-                    where, f"{table}.{key}", f"unknown key; expected one of {', '.join(keys)}"
-                )
+                raise _fail(where, f"{table}.{key}", unknown_key(key, keys))
             typ, _ = keys[key]
             if (isinstance(item, bool) and typ is not bool) or not isinstance(item, typ):
                 kind = typ.__name__ if isinstance(typ, type) else "number"
@@ -140,11 +152,17 @@ def _check_shape(where: str, data: dict[str, Any]) -> None:
 
 
 def parse_study(text: str, where: str) -> Study:
-    """A Study from TOML text; `where` names the file in error messages."""
+    """A Study from TOML text; `where` names the file in error messages, with the
+    line of the field at fault (tomlcheck, as scenes and the daemon's config)."""
+    reader = TomlReader(where, text, StudyError)
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise StudyError(f"{where}: not valid TOML: {exc}") from None
+        return _build(reader.data, where)
+    except _FieldError as exc:
+        path = tuple(exc.field.split("."))
+        raise StudyError(f"{reader.location(path)}: {exc.message}") from None
+
+
+def _build(data: dict[str, Any], where: str) -> Study:
     _check_shape(where, data)
     s, task = data["study"], data.get("task", {})
     params_in, answer = data.get("params", {}), data.get("answer", {})

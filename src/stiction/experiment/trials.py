@@ -118,7 +118,10 @@ def read_file(path: Path) -> list[Trial]:
     # A spreadsheet that saved the file may have put a byte-order mark first.
     text = read_regular_text(path, MAX_BYTES, AnalysisError, "trial CSV").removeprefix("\ufeff")
     reader = csv.DictReader(io.StringIO(text))
-    header = reader.fieldnames or []
+    try:
+        header = reader.fieldnames or []
+    except csv.Error as exc:  # binary junk fails already in the header row
+        raise AnalysisError(f"{path}:{max(reader.line_num, 1)}: not valid CSV: {exc}") from None
     missing = [c for c in REQUIRED if c not in header]
     if not header:
         raise AnalysisError(f"{path}: empty file; expected a CSV header and trial rows")

@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING
 from stiction.errors import ParamError
 from stiction.scene.pipeline import ContactModel
 from stiction.sim.contact import ContactSim
-from stiction.sim.integrators import INTEGRATORS
+from stiction.sim.integrators import INTEGRATORS, check_substeps, checked_params
 from stiction.sim.params import Params
 
 if TYPE_CHECKING:
@@ -31,10 +31,8 @@ class SimulatorBackend:
     def __init__(self, integrator: str = "default", substeps: int = 1) -> None:
         if integrator not in INTEGRATORS:
             raise ParamError(f"unknown integrator {integrator!r}; known: {', '.join(INTEGRATORS)}")
-        if substeps < 1:
-            raise ParamError(f"substeps must be at least 1, got {substeps}")
         self.integrator = integrator
-        self.substeps = substeps
+        self.substeps = check_substeps(substeps)
 
     def defaults(self) -> dict[str, float]:
         """The simulator's own default parameters (docs/design/model.md's table)."""
@@ -43,6 +41,15 @@ class SimulatorBackend:
 
     def params(self, values: Mapping[str, float]) -> Params:
         return Params.from_mapping({k: v for k, v in values.items() if k in PARAM_NAMES})
+
+    def check(self, params: Params) -> None:
+        """Refuse `params` this backend's integrator cannot step stably.
+
+        The row stepper checks each material only when a pipeline first ticks;
+        a scene or set_params checked here is refused before it is swapped in,
+        instead of failing every tick after.
+        """
+        checked_params(self.integrator, params, self.substeps)
 
     def rows(self) -> RowStepper:
         """The row stepper for the pipeline's batch step (numpy and numba: loaded on use)."""

@@ -98,8 +98,9 @@ def _doctor(args: argparse.Namespace) -> int:
     from stiction.setup import doctor, service
     from stiction.setup.udev_rules import builtin_rules
 
-    if args.config is not None and not args.config.is_file():
+    if args.config is not None and not args.config.exists():
         raise StictionError(f"{args.config}: no such config file")
+    # one that exists but is a directory or a FIFO is refused by the config reader, in words
     config: Path = args.config or service.config_path()
     findings = doctor.diagnose(config)
     rules = _rules_status(builtin_rules())

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from stiction.errors import StictionError
+from stiction.userfiles import read_regular_text
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,12 +33,7 @@ def install_text(
     version's) is replaced only with `force`; `show` is the command that
     prints what would be written, for the message.
     """
-    try:
-        current = path.read_text(encoding="utf-8")
-    except (FileNotFoundError, NotADirectoryError):
-        current = None
-    except OSError as exc:
-        raise StictionError(f"cannot read {path}: {exc.strerror or exc}") from None
+    current = _current(path)
     if current == text:
         return Outcome(path, "unchanged")
     if dry_run:
@@ -58,6 +54,26 @@ def install_text(
             tmp.unlink()
         raise StictionError(f"cannot write {path}: {exc.strerror or exc}") from None
     return Outcome(path, "written")
+
+
+MAX_INSTALLED_BYTES = 1 << 20
+"""A udev rules file or a systemd unit is a few kilobytes; a larger file there is not ours."""
+
+
+def _current(path: Path) -> str | None:
+    """What `path` holds now, None if nothing is there.
+
+    Read as a regular file only (a FIFO given as --path blocked the install)
+    and decoded leniently (a binary file made the install a UnicodeDecodeError
+    traceback): either way it differs from our text and --force is asked for.
+    """
+    try:
+        path.stat()  # follows a link: a dangling one is nothing there, as before
+    except (FileNotFoundError, NotADirectoryError):
+        return None
+    except OSError as exc:
+        raise StictionError(f"cannot read {path}: {exc.strerror or exc}") from None
+    return read_regular_text(path, MAX_INSTALLED_BYTES, StictionError, "file to replace")
 
 
 def is_root() -> bool:

@@ -67,6 +67,7 @@ def _parse_params(pairs: list[str]) -> dict[str, str]:
 def _simulate(args: argparse.Namespace) -> int:
     from stiction.errors import ParamError
     from stiction.sim.contact import ContactSim
+    from stiction.sim.integrators import MAX_SUBSTEPS
     from stiction.sim.params import Params
     from stiction.sim.trace import TraceSample, open_trace, resolve_trace, simulate, write_states
 
@@ -102,8 +103,8 @@ def _simulate(args: argparse.Namespace) -> int:
         values["rate"] = args.rate
     params = Params.from_mapping(values)
     events = {"auto": None, "on": True, "off": False}[args.events]
-    if args.substeps < 1:
-        raise ParamError(f"--substeps must be >= 1, got {args.substeps}")
+    if not 1 <= args.substeps <= MAX_SUBSTEPS:
+        raise ParamError(f"--substeps must be >= 1 and <= {MAX_SUBSTEPS}, got {args.substeps}")
     sim = ContactSim(params, args.integrator, args.substeps, events, string=string)
     path = resolve_trace(args.trace)
     touched = [False]

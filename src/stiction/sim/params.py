@@ -18,6 +18,11 @@ from stiction.errors import ParamError
 
 MAX_RATE = 1e6
 """Hz. Far above any display or tablet; beyond it steps become too short to resolve."""
+MIN_RATE = 1.0
+"""Hz. The daemon's loop sleeps to each tick's deadline and notices SIGTERM only
+there: at 0.001 Hz stictiond ignored SIGTERM for 1000 s, and at 1e-300 Hz its
+sleep overflowed time_t (an OverflowError traceback). Displays refresh at 24 Hz
+and more, so a slower tick shows nothing a user could feel."""
 # Parameters that may legitimately be zero (no static / no kinetic friction).
 _MAY_BE_ZERO = frozenset({"mu_s", "mu_k"})
 _UNITS = {
@@ -65,6 +70,8 @@ class Params:
         # compute from them (k = 1e-300 makes the stick radius squared infinite).
         if self.rate > MAX_RATE:
             raise ParamError(f"parameter rate must be <= {MAX_RATE:g} Hz, got {self.rate!r}")
+        if self.rate < MIN_RATE:
+            raise ParamError(f"parameter rate must be >= {MIN_RATE:g} Hz, got {self.rate!r}")
         derived: tuple[float, ...]
         try:
             derived = (

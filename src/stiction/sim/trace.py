@@ -53,6 +53,12 @@ sample to its last (docs/design/architecture.md), so a pause of 1e9 s would be
 1e11 ticks; a pause longer than ten minutes is two sessions, to be split."""
 
 
+MAX_TRACE_COORD_M = 1000.0
+"""Largest |x| or |y| in a trace, in metres: a hundred times the largest active
+area stiction accepts (10 m), so no device's trace comes near it. A trace
+at 1e308 m made the string's tension overflow to inf in the output."""
+
+
 EXAMPLES = Path(__file__).with_name("examples")
 """Traces shipped with the package (made by scripts/make-example-traces.sh)."""
 
@@ -140,8 +146,8 @@ def iter_trace(f: TextIO, name: str = "<trace>") -> Iterator[TraceSample]:
         if len(row) < len(header):
             raise RecordingError(f"{name}:{line}: expected {len(header)} columns, got {len(row)}")
         t = _num(row[it], "t", name, line)
-        x = _num(row[ix], "x", name, line)
-        y = _num(row[iy], "y", name, line)
+        x = _coord(_num(row[ix], "x", name, line), "x", name, line)
+        y = _coord(_num(row[iy], "y", name, line), "y", name, line)
         c = row[ic].strip()
         if c not in ("0", "1"):
             raise RecordingError(
@@ -192,6 +198,15 @@ def _num(text: str, what: str, name: str, line: int) -> float:
         raise RecordingError(f"{name}:{line}: {what} is not a number: {text.strip()!r}") from None
     if not math.isfinite(v):
         raise RecordingError(f"{name}:{line}: {what} must be finite, got {text.strip()!r}")
+    return v
+
+
+def _coord(v: float, what: str, name: str, line: int) -> float:
+    if abs(v) > MAX_TRACE_COORD_M:
+        raise RecordingError(
+            f"{name}:{line}: {what} = {v:g} m is off any tablet; a trace is in metres, "
+            f"at most {MAX_TRACE_COORD_M:g} from the origin"
+        )
     return v
 
 

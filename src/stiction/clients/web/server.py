@@ -12,6 +12,7 @@ import socket
 import sys
 from pathlib import Path
 from typing import Any
+from urllib.parse import quote
 
 from aiohttp import WSCloseCode, WSMsgType, web
 
@@ -154,6 +155,9 @@ async def run(
     ``ready`` gets the page's URL once serving; ``bridges`` (if given) gets the
     Bridge, so an embedding program (stiction demo) can read its counters."""
     local = is_local_host(host)
+    if token is not None and not token.strip():
+        # "" compared equal to the token-less request of anyone on the network
+        raise StictionError("--token is empty: it would let anyone in; omit it for a generated one")
     if not local and token is None:
         token = secrets.token_urlsafe(16)  # printed once below, with the URL
     bridge = Bridge(pub, control, curve)
@@ -175,7 +179,8 @@ async def run(
     shown = socket.gethostname() if wildcard else host
     if ":" in shown:
         shown = f"[{shown}]"
-    url = f"http://{shown}:{actual}/" + (f"?token={token}" if token else "")
+    # quoted: a chosen token with '&' or '#' would otherwise not reach the server whole
+    url = f"http://{shown}:{actual}/" + (f"?token={quote(token, safe='')}" if token else "")
     if announce:
         print(f"stiction web: open {url}  (frames from {pub})", file=sys.stderr, flush=True)
         if not local:

@@ -18,6 +18,7 @@ from pathlib import Path
 from stiction.drivers.catalogue.schema import Entry, Match, parse_entry
 from stiction.errors import DeviceError
 from stiction.tomlcheck import TomlReader
+from stiction.userfiles import read_regular_text
 
 GENERATED = "otd.json"
 BUILTIN = "devices.toml"
@@ -95,13 +96,17 @@ def user_table_path() -> Path:
     return Path(base) / "stiction" / "hid-devices.toml"
 
 
+MAX_USER_TABLE_BYTES = 1 << 20
+"""A user's own device entries: a few lines each."""
+
+
 def user() -> tuple[Entry, ...]:
     """The user's overlay (same schema), read on every call; () when there is none."""
     path = user_table_path()
-    try:
-        text = path.read_text("utf-8")
-    except FileNotFoundError:
+    if not path.exists():
         return ()
-    except OSError as exc:
-        raise DeviceError(f"cannot read the device table {path}: {exc}") from None
+    # Read like every user file: a FIFO named by $STICTION_HID_DEVICES blocked
+    # every command that looks a device up, and a binary file was a
+    # UnicodeDecodeError traceback.
+    text = read_regular_text(path, MAX_USER_TABLE_BYTES, DeviceError, "device table")
     return parse_toml(text, str(path), "user")

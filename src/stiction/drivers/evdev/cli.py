@@ -14,7 +14,7 @@ import time
 from collections.abc import Iterable, Iterator
 from typing import Any, TextIO
 
-from stiction.argtypes import add_size_mm_option
+from stiction.argtypes import add_size_mm_option, non_negative_int, positive_int
 from stiction.errors import StictionError
 
 
@@ -44,7 +44,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     d.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     d.add_argument(
         "--index",
-        type=int,
+        type=non_negative_int,
         metavar="N",
         help="device N of a multi-device libinput recording (default: the first pen/touch)",
     )
@@ -58,7 +58,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     r.add_argument("device", help="/dev/input/eventN")
     r.add_argument("--json", action="store_true", help="one JSON object per frame")
     r.add_argument("--grab", action="store_true", help="take the device exclusively")
-    r.add_argument("--frames", type=int, metavar="N", help="stop after N frames")
+    r.add_argument("--frames", type=positive_int, metavar="N", help="stop after N frames")
     add_size_mm_option(r)
     r.add_argument("--stats", action="store_true", help="print counters to stderr at the end")
     r.set_defaults(func=_read)
@@ -76,7 +76,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     )
     w.add_argument("device", help="/dev/input/eventN")
     w.add_argument("output", help="file to write (.yml/.yaml: libinput record; else evemu)")
-    w.add_argument("--frames", type=int, metavar="N", help="stop after N SYN_REPORT frames")
+    w.add_argument(
+        "--frames", type=positive_int, metavar="N", help="stop after N SYN_REPORT frames"
+    )
     w.add_argument("--grab", action="store_true", help="take the device exclusively")
     w.set_defaults(func=_record)
 

@@ -20,6 +20,7 @@ from pathlib import Path
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
 from stiction.drivers.limits import read_text
 from stiction.errors import RecordingError
+from stiction.userfiles import shown
 
 Event = tuple[int, int, int, int, int]
 
@@ -135,7 +136,8 @@ def parse(path: Path, text: str | None = None) -> EvemuFile:
             else:
                 raise ValueError(f"unknown line type {tag!r}")
         except ValueError as exc:
-            raise _fail(path, lineno, f"{exc} in {raw.strip()[:80]!r}") from None
+            # The reason may quote the line too (an unknown tag is the whole line): bounded.
+            raise _fail(path, lineno, f"{shown(exc)} in {raw.strip()[:80]!r}") from None
     if not has_description and (masks or absinfo):
         raise RecordingError(f"{path}: capability lines but no 'N:' device name line")
     if not has_description:

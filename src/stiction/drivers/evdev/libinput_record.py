@@ -64,7 +64,9 @@ def parse(
         _refuse_aliases(path, text)
         doc = yaml.load(text, Loader=_Loader)
     except yaml.YAMLError as exc:
-        raise RecordingError(f"{path}: not valid YAML: {exc}") from None
+        # PyYAML's messages span lines ("while ...", the problem, "in ..."): one line here
+        why = "; ".join(part.strip() for part in str(exc).splitlines() if part.strip())
+        raise RecordingError(f"{path}: not valid YAML: {why}") from None
     except RecursionError:
         raise RecordingError(f"{path}: YAML nested too deeply") from None
     if not isinstance(doc, dict):

@@ -67,6 +67,24 @@ def _partner(path: Path, want_events: bool) -> Path:
     raise RecordingError(f"{path} has no {half}; several candidates ({names}): give one")
 
 
+def _not_another_kind(path: Path, text: str) -> None:
+    """Name the files users hand over by mistake, instead of failing on their first line.
+
+    `stictiond --device replay:FILE` reads every file but .hid as evemu, so a
+    `stiction record` .npz was 'unknown line type PK\\x03\\x04...' and a trace CSV
+    'unknown line type t,x,y,contact'.
+    """
+    if text.startswith("PK\x03\x04") or path.suffix == ".npz":
+        raise RecordingError(
+            f"{path} is a `stiction record` recording (.npz), not a device recording: "
+            "publish it with `stiction replay`, or make a trace of it with `stiction trace`"
+        )
+    if text.split("\n", 1)[0].replace(" ", "").startswith("t,x,y,contact"):
+        raise RecordingError(
+            f"{path} is a trace CSV, not a device recording: run it with `stiction simulate`"
+        )
+
+
 def load(
     path: str | Path, events_path: str | Path | None = None, device: int | None = None
 ) -> Recording:
@@ -77,6 +95,7 @@ def load(
     """
     path = Path(path)
     text = _read(path)
+    _not_another_kind(path, text)
     if libinput_record.looks_like(text) or path.suffix in (".yml", ".yaml"):
         if events_path is not None:
             raise RecordingError(f"{path} is a libinput record file; it takes no events file")

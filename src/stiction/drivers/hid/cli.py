@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from stiction.argtypes import SIZE_MM_FLAG, add_size_mm_option
+from stiction.argtypes import SIZE_MM_FLAG, add_size_mm_option, non_negative_int, seconds_or_zero
 from stiction.errors import SizeUnknown, StictionError
 
 
@@ -226,7 +226,9 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     r = hsub.add_parser("read", help="print the pen/touch samples of a live hidraw device")
     r.add_argument("device", help="/dev/hidrawN, or vid:pid (e.g. 28bd:0907)")
     r.add_argument("--json", action="store_true", help="one JSON object per sample")
-    r.add_argument("--count", type=int, default=0, help="stop after N samples")
+    r.add_argument(
+        "--count", type=non_negative_int, default=0, help="stop after N samples (0: never)"
+    )
     add_size_mm_option(r, metres=True, when="when the descriptor and catalogue lack it")
     r.set_defaults(func=_read)
     rec = hsub.add_parser(
@@ -236,6 +238,10 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
         "--count reports or --seconds.",
     )
     rec.add_argument("device", help="/dev/hidrawN, or vid:pid")
-    rec.add_argument("--count", type=int, default=0, help="stop after N reports")
-    rec.add_argument("--seconds", type=float, default=0.0, help="stop after S seconds")
+    rec.add_argument(
+        "--count", type=non_negative_int, default=0, help="stop after N reports (0: never)"
+    )
+    rec.add_argument(
+        "--seconds", type=seconds_or_zero, default=0.0, help="stop after S seconds (0: never)"
+    )
     rec.set_defaults(func=_record)

@@ -16,6 +16,7 @@ import contextlib
 import logging
 import os
 import re
+import stat
 import threading
 import time
 from collections.abc import Callable, Iterator
@@ -88,6 +89,11 @@ def resolve(path_or_vidpid: str) -> tuple[bytes, int, int, str]:
             return path, d["vendor_id"], d["product_id"], d.get("product_string") or ""
     if not os.path.exists(path_or_vidpid):
         raise DeviceError(f"{path_or_vidpid}: no such hidraw device")
+    # hidapi "opens" anything and then says only "open failed", which the caller
+    # explains as a permission problem; a file or /dev/zero is not one.
+    real = os.path.realpath(path_or_vidpid)
+    if not stat.S_ISCHR(os.stat(real).st_mode) or not os.path.basename(real).startswith("hidraw"):
+        raise DeviceError(f"{path_or_vidpid} is not a hidraw device (/dev/hidrawN, or VID:PID)")
     return path, 0, 0, ""
 
 
