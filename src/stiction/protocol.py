@@ -14,12 +14,17 @@ from __future__ import annotations
 import functools
 import ipaddress
 import math
+import reprlib
 from collections.abc import Mapping
 from typing import Any, Literal, NotRequired, TypedDict, cast
 
 import msgpack
 
 from stiction.errors import ProtocolError
+
+_brief = reprlib.Repr()
+_brief.maxstring = 60
+_brief.maxother = 60
 
 SCHEMA_VERSION = 1
 """Bumped only for changes that would make an old client misread a frame.
@@ -258,7 +263,8 @@ def parse_request(payload: bytes) -> tuple[ControlOp, dict[str, Any]]:
     op = msg.pop("op", None)
     msg.pop("v", None)
     if op not in CONTROL_OPS:
-        raise ProtocolError(f"unknown op {op!r}; known: {', '.join(CONTROL_OPS)}")
+        # reprlib keeps an op of any size to a few dozen characters in the reply and the log
+        raise ProtocolError(f"unknown op {_brief.repr(op)}; known: {', '.join(CONTROL_OPS)}")
     return cast(ControlOp, op), msg
 
 

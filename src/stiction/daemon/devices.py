@@ -147,9 +147,26 @@ def _path_problem(path: str, may_appear: bool) -> str | None:
     except OSError:
         return None  # exists but unreadable: opening names the permission problem
     if stat.S_ISCHR(mode):
-        return None
+        kind = _char_subsystem(path)
+        if kind is None or kind in ("input", "hidraw"):
+            return None
+        return (
+            f"{path} is a {kind} device, not an input device "
+            "(an evdev node in /dev/input or a /dev/hidrawN)"
+        )
     hint = " (a recording? use replay:PATH)" if stat.S_ISREG(mode) else ""
     return f"{path} is not a character device{hint}"
+
+
+def _char_subsystem(path: str) -> str | None:
+    """The kernel subsystem of character device `path` ("input", "hidraw", "mem" for
+    /dev/null, "tty", ...) from sysfs; None where sysfs does not say."""
+    try:
+        rdev = os.stat(path).st_rdev
+        link = f"/sys/dev/char/{os.major(rdev)}:{os.minor(rdev)}/subsystem"
+        return os.path.basename(os.readlink(link)) or None
+    except OSError:
+        return None
 
 
 def spec_problem(spec: Spec) -> str | None:
@@ -267,7 +284,7 @@ def _open_source(spec: Spec, cfg: DeviceConfig, realtime: bool, loop: bool) -> S
         why = f"asked for {backend}" if backend else info.reason
         log.info("device_backend spec=%s node=%s reason=%s", spec.target, info.path, why)
         return _open_source(Spec(info.backend, info.path), cfg, realtime, loop)
-    what = f"id {spec.target}" if spec.kind == "vidpid" else f"named like {spec.target!r}"
+    what = f"id {spec.target}" if spec.kind == "vidpid" else f"a name like {spec.target!r}"
     through = f" through {backend}" if backend else ""
     if nodes:
         raise DeviceError(f"the device with {what}{through} cannot be read: {nodes[0].problem}")
