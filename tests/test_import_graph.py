@@ -35,7 +35,7 @@ ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
 
 LAYERS: tuple[frozenset[str], ...] = (
-    frozenset({"errors", "lazy"}),
+    frozenset({"errors", "lazy", "xdg"}),
     frozenset({"userfiles"}),
     frozenset({"argtypes", "protocol", "keyfiles", "tomlcheck", "__init__"}),
     frozenset({"sim", "drivers"}),

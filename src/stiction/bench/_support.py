@@ -16,6 +16,7 @@ from types import TracebackType
 from typing import Any
 
 from stiction.errors import StictionError
+from stiction.xdg import cache_home
 
 ENV_RESULTS = "STICTION_BENCH_RESULTS"
 # The modules `pip install 'stiction[bench]'` brings (the daemon needs none of them).
@@ -55,8 +56,7 @@ def default_results() -> Path:
     env = os.environ.get(ENV_RESULTS)
     if env:
         return Path(env)
-    cache = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(cache) / "stiction" / "bench"
+    return cache_home() / "stiction" / "bench"
 
 
 def set_results_dir(path: Path | None) -> None:

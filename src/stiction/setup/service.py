@@ -18,6 +18,7 @@ from importlib import resources
 from pathlib import Path
 
 from stiction.errors import StictionError
+from stiction.xdg import config_home
 
 UNIT_NAME = "stictiond.service"
 
@@ -35,12 +36,6 @@ STARTER_CONFIG = """\
 # grab = true                    # evdev only: the desktop cursor stops following the pen
 # surface_size = [0.2235, 0.1397] # active area in metres, for a device reporting no size
 """
-
-
-def config_home() -> Path:
-    """$XDG_CONFIG_HOME, or ~/.config when it is unset or not absolute (the XDG rule)."""
-    value = os.environ.get("XDG_CONFIG_HOME", "")
-    return Path(value) if value and os.path.isabs(value) else Path.home() / ".config"
 
 
 def unit_path() -> Path:

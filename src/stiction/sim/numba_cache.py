@@ -24,6 +24,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 from typing import Any
 
+from stiction.xdg import cache_home
+
 PACKAGE_DIR = Path(__file__).resolve().parent
 DEPENDENCIES = (
     PACKAGE_DIR / "step.py",
@@ -34,8 +36,7 @@ DEPENDENCIES = (
 
 
 def user_cache_dir() -> Path:
-    base = os.environ.get("XDG_CACHE_HOME") or str(Path.home() / ".cache")
-    return Path(base) / "stiction" / "numba"
+    return cache_home() / "stiction" / "numba"
 
 
 def writable(folder: Path) -> bool:

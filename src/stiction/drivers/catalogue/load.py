@@ -19,6 +19,7 @@ from stiction.drivers.catalogue.schema import Entry, Match, parse_entry
 from stiction.errors import DeviceError
 from stiction.tomlcheck import TomlReader
 from stiction.userfiles import read_regular_text
+from stiction.xdg import config_home
 
 GENERATED = "otd.json"
 BUILTIN = "devices.toml"
@@ -92,8 +93,7 @@ def user_table_path() -> Path:
     env = os.environ.get(USER_TABLE_ENV)
     if env:
         return Path(env)
-    base = os.environ.get("XDG_CONFIG_HOME") or str(Path.home() / ".config")
-    return Path(base) / "stiction" / "hid-devices.toml"
+    return config_home() / "stiction" / "hid-devices.toml"
 
 
 MAX_USER_TABLE_BYTES = 1 << 20
