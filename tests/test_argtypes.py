@@ -137,3 +137,34 @@ def test_malformed_hosts_are_refused(
     with pytest.raises(SystemExit):
         cli.build_parser().parse_args(["listen", bad])
     assert words in capsys.readouterr().err
+
+
+@pytest.mark.parametrize(
+    ("given", "served"),
+    [("[::1]", "::1"), ("::1", "::1"), ("127.0.0.1", "127.0.0.1"), ("localhost", "localhost")],
+)
+def test_web_host_takes_ipv6_with_or_without_brackets(given: str, served: str) -> None:
+    """`stiction web --host [::1]` failed with "Name or service not known": the
+    brackets of the URL form reached getaddrinfo."""
+    from stiction.argtypes import http_host
+
+    assert http_host(given) == served
+
+
+@pytest.mark.parametrize(
+    ("given", "message"),
+    [
+        ("[::1", "not an IPv6 address"),
+        ("1.2.3.4.5", "not a host name or an IPv4 or IPv6 address"),
+        ("bad host", "not a host name"),
+        ("*", "ZeroMQ's wildcard"),
+    ],
+)
+def test_web_host_refuses_what_cannot_be_served(
+    given: str, message: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["web", "--host", given, "--no-control", "--seconds", "0.1"])
+    assert exc.value.code == 2
+    err = capsys.readouterr().err
+    assert message in err and "Traceback" not in err

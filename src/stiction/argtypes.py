@@ -214,6 +214,32 @@ def _check_host(text: str, host: str) -> None:
         raise ValueError(f"{text!r}: {host!r} is not a host name, an address or *")
 
 
+def http_host(text: str) -> str:
+    """An address to serve HTTP on (`stiction web --host`): a host name, an IPv4
+    address, or an IPv6 address with or without its URL brackets (`[::1]` is
+    served as `::1`; aiohttp, like getaddrinfo, takes the bare form)."""
+    if text == "":
+        return text  # every interface, as aiohttp reads it
+    bare = text[1:-1] if text.startswith("[") and text.endswith("]") else text
+    if bare == "*":
+        raise argparse.ArgumentTypeError(
+            "'*' is ZeroMQ's wildcard; to serve on every interface give 0.0.0.0 or ::"
+        )
+    if ":" in bare:
+        try:
+            ipaddress.IPv6Address(bare.split("%", 1)[0])
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not an IPv6 address") from None
+        return bare
+    try:
+        _check_host(text, bare)
+    except ValueError:
+        raise argparse.ArgumentTypeError(
+            f"{text!r} is not a host name or an IPv4 or IPv6 address"
+        ) from None
+    return bare
+
+
 def check_endpoint(text: str) -> str:
     """Return the ZeroMQ endpoint `text`, or raise ValueError saying what is wrong with it.
 

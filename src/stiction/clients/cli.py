@@ -14,6 +14,7 @@ from stiction import protocol
 from stiction.argtypes import (
     endpoint,
     factor,
+    http_host,
     non_negative_int,
     port,
     positive_int,
@@ -248,6 +249,7 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
     p.add_argument("--no-control", action="store_true", help="do not contact the control endpoint")
     p.add_argument(
         "--host",
+        type=http_host,
         default="127.0.0.1",
         help="address to serve on (default loopback; any other needs the access token, "
         "generated and printed with the URL unless --token gives one)",
