@@ -666,3 +666,34 @@ def test_a_variant_completes_the_entrys_own_facts() -> None:
     entry = from_resolved(r, _vendor((9, 9)))
     assert entry.family == "veikk-v1" and entry.size_m == pytest.approx((0.01, 0.01))
     assert from_resolved(r, _vendor((9, 13))).family is None
+
+
+@pytest.mark.parametrize(
+    ("maximum", "resolution"),
+    [(2**31 - 1, 1), (15200, 100_000)],  # 2,147 km wide; 0.15 mm wide
+)
+def test_an_evdev_size_no_surface_has_is_taken_as_none(
+    maximum: int, resolution: int, caplog: pytest.LogCaptureFixture
+) -> None:
+    """An evemu file claiming a 2,147 km axis was read as that: the pointer moved by
+    nothing. A size outside 1 mm..10 m a side is taken as no size: the catalogue
+    fills in where it knows the device, else opening it asks for one."""
+    keys = {ecodes.BTN_TOOL_PEN, ecodes.BTN_TOUCH}
+    axes = {
+        ecodes.ABS_X: AbsAxis(0, 0, maximum, resolution=resolution),
+        ecodes.ABS_Y: AbsAxis(0, 0, 9500, resolution=100),
+    }
+    unknown = DeviceDescription("Acme Pen", 3, 0x1234, 0x0001, keys=frozenset(keys), axes=axes)
+    assert not sizes.kernel_size_plausible(unknown)
+    with pytest.raises(DeviceError, match="no resolution"):
+        sizes.require(sizes.apply(unknown))
+    assert "implausible_size" in caplog.text
+    # the same node of a device the catalogue knows (Wacom CTL-4100: 152 x 95 mm)
+    known = DeviceDescription(
+        "Wacom Intuos S Pen", 3, 0x056A, 0x0374, keys=frozenset(keys), axes=axes
+    )
+    fixed = sizes.apply(known)
+    x = fixed.axes[ecodes.ABS_X]
+    assert (x.maximum - x.minimum) / x.resolution == pytest.approx(152.0, rel=0.01)
+    # a size given by the user still wins
+    assert sizes.apply(unknown, (150.0, 95.0)).axes[ecodes.ABS_X].resolution > 0

@@ -8,6 +8,7 @@ decoder), an array whose usage range spans 2^32 usages (MemoryError).
 
 from __future__ import annotations
 
+import re
 import resource
 import subprocess
 import sys
@@ -151,3 +152,27 @@ def test_any_edited_hid_recorder_file_is_a_recording_or_one_error(
         parse_recording("\n".join(lines), "r.hid")
     except StictionError as exc:
         assert "\n" not in str(exc)
+
+
+# The same pen with a physical extent no surface has: 0..2147483647 cm, and 0..1 at
+# Unit Exponent -4 (one micrometre).
+HUGE_EXTENT = _h(
+    "050d 0902 a101 8501 0920 a100 0501 5500 6511 3500 47ffffff7f"
+    " 0930 0931 1500 26ff00 7510 9502 8102 c0 c0"
+)
+TINY_EXTENT = _h(
+    "050d 0902 a101 8501 0920 a100 0501 550c 6511 3500 4501"
+    " 0930 0931 1500 26ff00 7510 9502 8102 c0 c0"
+)
+
+
+@pytest.mark.parametrize(
+    ("raw", "claimed"), [(HUGE_EXTENT, "2.14748e+07 m"), (TINY_EXTENT, "1e-06 m")]
+)
+def test_a_size_no_surface_has_is_taken_as_none(raw: bytes, claimed: str) -> None:
+    """A descriptor claiming a 21,475 km (or 1 um) pen area moved the pointer by
+    nothing (or by everything); it now asks for the size, quoting what it claimed."""
+    desc = parse_descriptor(raw)
+    with pytest.raises(DeviceError, match=re.escape(f"a physical size no surface has ({claimed})")):
+        ReportStream(desc, "pen")
+    assert ReportStream(desc, "pen", (0.1, 0.05)).surface_size == (0.1, 0.05)

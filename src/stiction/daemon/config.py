@@ -17,6 +17,7 @@ from stiction.daemon.devices import DeviceConfig, backend_problem, parse_spec, s
 from stiction.daemon.mapping import ASPECTS, MODES, ROTATIONS, MappingConfig
 from stiction.daemon.options import Options, problem
 from stiction.daemon.security import CurveConfig
+from stiction.drivers.sample import MAX_SURFACE_M, MIN_SURFACE_M
 from stiction.errors import ParamError, StictionError
 from stiction.scene.load import MAX_DISPLAY_PX, MAX_FRICTION, MAX_NUMBER
 from stiction.sim.integrators import INTEGRATORS
@@ -176,11 +177,8 @@ def load_options(path: Path, base: Options | None = None) -> Options:
     return opts
 
 
-MIN_SURFACE_M = 1e-3
-"""A surface (or an area of one) at least 1 mm a side: smaller is a typo, and it
-scaled the pointer to 1e304 px."""
-MAX_SURFACE_M = 10.0
-"""At most 10 m, as `--size-mm` says."""
+# A surface (or an area of one) 1 mm to 10 m a side, the bounds every size
+# source is held to: smaller is a typo, and it scaled the pointer to 1e304 px.
 MAX_GAIN = 1000.0
 """Relative mapping: a thousand screen widths per surface width is far past any use."""
 

@@ -10,6 +10,19 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
+MIN_SURFACE_M = 1e-3
+"""The smallest surface side any size source may give: 1 mm (`--size-mm`, the
+daemon's config and a device's own report are held to the same bounds)."""
+MAX_SURFACE_M = 10.0
+"""The largest: 10 m. A device reporting more (an evemu file claiming a
+2,147 km axis) is treated as reporting no size, and so asks for one, rather
+than moving the pointer by nothing."""
+
+
+def plausible_side(metres: float) -> bool:
+    """A surface side within [MIN_SURFACE_M, MAX_SURFACE_M] (NaN is not)."""
+    return MIN_SURFACE_M <= metres <= MAX_SURFACE_M
+
 
 class Tool(enum.Enum):
     """What is touching the surface."""

@@ -12,11 +12,15 @@ and raises a DeviceError naming the device and how to configure it.
 
 from __future__ import annotations
 
+import logging
 from dataclasses import dataclass
 
 from stiction.drivers.catalogue.resolve import lookup as catalogue_lookup
 from stiction.drivers.evdev.description import DeviceDescription
+from stiction.drivers.sample import plausible_side
 from stiction.errors import DeviceError, SizeUnknown
+
+log = logging.getLogger(__name__)
 
 
 @dataclass(frozen=True)
@@ -82,7 +86,14 @@ def apply(desc: DeviceDescription, size_mm: tuple[float, float] | None = None) -
     cx, cy = desc.position_codes
     ax, ay = desc.axes.get(cx), desc.axes.get(cy)
     if ax is not None and ay is not None and ax.resolution > 0 and ay.resolution > 0:
-        return desc
+        if kernel_size_plausible(desc):
+            return desc
+        log.warning(
+            "implausible_size device=%r resolution=%d,%d: a surface no device has "
+            "(over 10 m or under 1 mm a side); taken as reporting no size",
+            desc.name, ax.resolution, ay.resolution,
+        )  # fmt: skip
+        desc = desc.with_resolution(0, 0)  # as if none were given: the catalogue may fill in
     entry = lookup(desc)
     if entry is None:
         return desc
@@ -90,6 +101,16 @@ def apply(desc: DeviceDescription, size_mm: tuple[float, float] | None = None) -
         return desc.with_resolution(*entry.resolution_mm)
     assert entry.size_mm is not None
     return _with_size(desc, *entry.size_mm)
+
+
+def kernel_size_plausible(desc: DeviceDescription) -> bool:
+    """The size the node's ranges and resolutions give is one a surface can have
+    (drivers.sample.MAX_SURFACE_M); True where there is none to judge."""
+    cx, cy = desc.position_codes
+    ax, ay = desc.axes.get(cx), desc.axes.get(cy)
+    if ax is None or ay is None or ax.resolution <= 0 or ay.resolution <= 0:
+        return True
+    return all(plausible_side((a.maximum - a.minimum) / a.resolution / 1000) for a in (ax, ay))
 
 
 def require(desc: DeviceDescription) -> None:

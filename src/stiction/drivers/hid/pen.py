@@ -11,12 +11,13 @@ because coordinates that are not metres would silently break the physics.
 
 from __future__ import annotations
 
+import math
 from collections import Counter
 from dataclasses import dataclass, replace
 
 from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, Report, ReportDescriptor
-from stiction.drivers.hid.units import degrees_per_logical, extent_m, unit_name
+from stiction.drivers.hid.units import degrees_per_logical, extent_m, raw_extent_m, unit_name
 from stiction.drivers.sample import PenSample, Tool
 from stiction.errors import DeviceError, SizeUnknown
 
@@ -149,8 +150,12 @@ def _axis_size(f: Field, override: float | None) -> float | None:
 
 
 def _size_error(device: str, f: Field, which: str) -> SizeUnknown:
+    claimed = raw_extent_m(f)
+    what = "no physical size"
+    if math.isfinite(claimed) and claimed > 0:
+        what = f"a physical size no surface has ({claimed:.6g} m)"
     return SizeUnknown(
-        f"{device}: the report descriptor gives no physical size for {which} "
+        f"{device}: the report descriptor gives {what} for {which} "
         f"(unit {unit_name(f.unit)}, physical {f.physical_min}..{f.physical_max}), so its "
         "coordinates cannot be converted to metres",
         "size_mm = [width, height] in its entry of ~/.config/stiction/hid-devices.toml "

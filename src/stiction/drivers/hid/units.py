@@ -13,6 +13,7 @@ from __future__ import annotations
 import math
 
 from stiction.drivers.hid.descriptor import Field
+from stiction.drivers.sample import plausible_side
 
 SI_LINEAR, SI_ROTATION, ENGLISH_LINEAR, ENGLISH_ROTATION = 1, 2, 3, 4
 _LENGTH_BASE_M = {SI_LINEAR: 0.01, ENGLISH_LINEAR: 0.0254}
@@ -58,11 +59,20 @@ def extent_m(f: Field) -> float | None:
     scale = metres_per_physical_unit(f)
     if scale is None:
         return None
-    lo, hi = physical_range(f)
-    size = (hi - lo) * scale
-    if not math.isfinite(size) or size <= 0 or f.logical_max <= f.logical_min:
-        return None
+    size = raw_extent_m(f, scale)
+    if not plausible_side(size) or f.logical_max <= f.logical_min:
+        return None  # none, or one no surface has (drivers.sample.MAX_SURFACE_M)
     return size
+
+
+def raw_extent_m(f: Field, scale: float | None = None) -> float:
+    """The length the field's physical range claims, in metres, whatever it is (NaN
+    without a length unit): what an error message quotes."""
+    scale = metres_per_physical_unit(f) if scale is None else scale
+    if scale is None:
+        return math.nan
+    lo, hi = physical_range(f)
+    return (hi - lo) * scale
 
 
 def degrees_per_logical(f: Field) -> float:
