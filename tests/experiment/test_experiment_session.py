@@ -237,3 +237,23 @@ def test_a_damaged_sidecar_is_one_data_error(tmp_path: Path, content: bytes) -> 
     path.write_bytes(content)
     with pytest.raises(DataError, match="sidecar"):
         read_sidecar(path)
+
+
+def test_a_fifo_in_place_of_a_participants_csv_is_an_error_not_a_hang(tmp_path: Path) -> None:
+    """data.repair read the file with read_bytes before the checked reader saw it:
+    a FIFO put in its place blocked a resumed session for good."""
+    import os
+
+    from stiction.experiment.data import DataError
+
+    fifo = tmp_path / "P09.csv"
+    os.mkfifo(fifo)
+    with pytest.raises(DataError, match="not a regular file"):
+        data.completed(fifo)
+
+
+def test_repair_cuts_a_row_a_crash_left_half_written(tmp_path: Path) -> None:
+    path = tmp_path / "P10.csv"
+    path.write_bytes(b"a,b\n1,2\n3,")
+    data.repair(path)
+    assert path.read_bytes() == b"a,b\n1,2\n"

@@ -19,7 +19,7 @@ from pathlib import Path
 from typing import Any
 
 from stiction.errors import StictionError
-from stiction.userfiles import read_regular_text
+from stiction.userfiles import open_regular, read_regular_text
 
 MAX_TRIALS_BYTES = 64 << 20
 """One participant's trial CSV: thousands of rows; 64 MiB is far beyond one."""
@@ -122,7 +122,9 @@ def repair(path: Path) -> None:
     """Cut a last row that a crash left without its newline (it is incomplete)."""
     if not path.exists():
         return
-    data = path.read_bytes()
+    # a regular file of bounded size, or a DataError: a FIFO put in its place blocked here
+    with open_regular(path, MAX_TRIALS_BYTES, DataError, "trial CSV") as f:
+        data = f.read(MAX_TRIALS_BYTES + 1)
     if data and not data.endswith(b"\n"):
         cut = data.rfind(b"\n") + 1
         with open(path, "r+b") as f:
