@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import endpoint, port
+from stiction.argtypes import endpoint, port, positive_int
 
 DEFAULT_PORT = 8766
 
@@ -30,18 +30,8 @@ def _study(args: argparse.Namespace) -> Any:
     return study
 
 
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"must be at least 1, got {value}")
-    return value
-
-
 def _participants(text: str) -> int:
-    value = _positive_int(text)
+    value = positive_int(text)
     if value > MAX_SIMULATED:
         raise argparse.ArgumentTypeError(f"must be at most {MAX_SIMULATED}, got {value}")
     return value
@@ -154,13 +144,13 @@ def register(sub: argparse._SubParsersAction[Any]) -> None:
 
     def study_arg(p: argparse.ArgumentParser) -> None:
         p.add_argument("study", metavar="STUDY", help="study TOML file, or paper-study1/2")
-        p.add_argument("--repetitions", type=_positive_int, help="override the study's repetitions")
+        p.add_argument("--repetitions", type=positive_int, help="override the study's repetitions")
         p.add_argument("--seed", type=_seed, help="order seed (default: from study and ID)")
 
     c = esub.add_parser("check", help="validate a study and show a participant's order")
     study_arg(c)
     c.add_argument("--participant", metavar="ID", help="show this participant's first trials")
-    c.add_argument("--show", type=_positive_int, default=8, help="how many trials (default 8)")
+    c.add_argument("--show", type=positive_int, default=8, help="how many trials (default 8)")
     c.set_defaults(func=_check)
 
     r = esub.add_parser(
