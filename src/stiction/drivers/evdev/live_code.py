@@ -46,7 +46,11 @@ from evdev import ecodes
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import INPUT_EVENT, Contact, FrameAssembler
-from stiction.drivers.evdev.live_mt_code import HAND_OVER, KEY_EVENT_AND_READ_END
+from stiction.drivers.evdev.live_mt_code import (
+    HAND_OVER,
+    KEY_EVENT_AND_READ_END,
+    READ_START,
+)
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample, Tool
@@ -340,17 +344,7 @@ def count():
 
 def samples(reads):
     nonlocal {state}, made_samples, inside, last_sample, key_tool, key_touch, buttons
-    data = b""
-    try:
-        for data in reads:
-            if not ok or len(data) >= long_read:
-                store()
-                out = fallback(data)
-                load()
-                made_samples += len(out)
-                yield from out
-                continue
-            snap = ({state})
+{READ_START}            snap = ({state})
             ev_type = 0  # an empty read is a whole one
             odd = None  # the read's anomalies, counted once the read went well
             keys_changed = False

@@ -54,6 +54,23 @@ _ORDER = (
 )
 
 
+READ_START = """\
+    data = b""
+    try:
+        for data in reads:
+            if not ok or len(data) >= long_read:
+                store()
+                out = fallback(data)
+                load()
+                made_samples += len(out)
+                yield from out
+                continue
+"""
+"""Both generated readers' first lines per read: a read the reader does not take
+(it holds no state, or the read is long enough for the compiled loop) goes
+whole to the assembler, with the state stored into it and loaded back after."""
+
+
 HAND_OVER = """\
             store()
             out = fallback(data)
@@ -327,17 +344,7 @@ def count():
 
 def samples(reads):
     nonlocal cur, active, lasts, buttons, rebuild, keys_changed, made_samples, inside
-    data = b""
-    try:
-        for data in reads:
-            if not ok or len(data) >= long_read:
-                store()
-                out = fallback(data)
-                load()
-                made_samples += len(out)
-                yield from out
-                continue
-            snap = (vals[:], cur, active, buttons, rebuild, keys_changed, inside)
+{READ_START}            snap = (vals[:], cur, active, buttons, rebuild, keys_changed, inside)
             tsnap = None  # tids, kept once a tracking id comes
             ksnap = None  # the key set, kept once a key comes
             base = 3 * cur
