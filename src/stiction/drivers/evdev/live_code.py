@@ -47,6 +47,7 @@ from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
 from stiction.drivers.evdev.frames import INPUT_EVENT, Contact, FrameAssembler
 from stiction.drivers.evdev.live_mt_code import (
+    COLLECT,
     HAND_OVER,
     KEY_EVENT_AND_READ_END,
     READ_START,
@@ -146,12 +147,7 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
         "s.buttons = buttons",
         "s.__class__ = pen",
         "last_sample = s",
-        "if first is None:",
-        "    first = s",
-        "elif rest is None:",
-        "    rest = [s]",
-        "else:",
-        "    rest.append(s)",
+        *COLLECT,
     ]
     return "".join(f"{indent}{line}\n" for line in lines)
 
@@ -178,12 +174,7 @@ def _ended_code(indent: str) -> str:
         "s.tilt_y = o.tilt_y",
         "s.buttons = o.buttons",
         "s.__class__ = pen",
-        "if first is None:",
-        "    first = s",
-        "elif rest is None:",
-        "    rest = [s]",
-        "else:",
-        "    rest.append(s)",
+        *COLLECT,
         "last_tool = None",
     ]
     return "".join(f"{indent}{line}\n" for line in lines)

@@ -54,6 +54,24 @@ _ORDER = (
 )
 
 
+COLLECT = (
+    "if first is None:",
+    "    first = s",
+    "elif rest is None:",
+    "    rest = [s]",
+    "else:",
+    "    rest.append(s)",
+)
+"""Both generated readers' lines that add sample `s` to the read's samples: the
+first one alone, the rest in a list made only for a second (most reads have one),
+all handed out once the whole read went well."""
+
+
+def collect(indent: str) -> str:
+    """COLLECT as source at `indent`."""
+    return "".join(f"{indent}{line}\n" for line in COLLECT)
+
+
 READ_START = """\
     data = b""
     try:
@@ -240,13 +258,7 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
                         s.tilt_y = None
                         s.buttons = btn
                         s.__class__ = pen
-                        if first is None:
-                            first = s
-                        elif rest is None:
-                            rest = [s]
-                        else:
-                            rest.append(s)
-                        lasts[k] = s
+{collect(" " * 24)}                        lasts[k] = s
 """
 
 
@@ -399,13 +411,7 @@ def samples(reads):
                                 s.tilt_y = None
                                 s.buttons = o.buttons
                                 s.__class__ = pen
-                                if first is None:
-                                    first = s
-                                elif rest is None:
-                                    rest = [s]
-                                else:
-                                    rest.append(s)
-                        active = tuple(made_now)
+{collect(" " * 32)}                        active = tuple(made_now)
                         lasts = [None] * len(made_now)
                         inside = {inside}
 {_sample_code(asm, units)}                    continue
