@@ -80,12 +80,21 @@ MAX_HWM = 2**31 - 1
 """A ZeroMQ high-water mark is a C int; a larger one made setsockopt raise."""
 
 
-def hwm(text: str) -> int:
-    """A ZeroMQ high-water mark: a whole number from 1 to MAX_HWM."""
-    value = positive_int(text)
-    if value > MAX_HWM:
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_HWM}, got {value}")
-    return value
+def count_up_to(high: int) -> Callable[[str], int]:
+    """A whole number from 1 to `high` (a count with a ceiling)."""
+
+    def check(text: str) -> int:
+        value = positive_int(text)
+        if value > high:
+            raise argparse.ArgumentTypeError(f"must be at most {high}, got {value}")
+        return value
+
+    check.__name__ = f"count up to {high}"
+    return check
+
+
+hwm = count_up_to(MAX_HWM)
+"""A ZeroMQ high-water mark: a whole number from 1 to MAX_HWM."""
 
 
 def seconds(text: str) -> float:

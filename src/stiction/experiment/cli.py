@@ -11,7 +11,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from stiction.argtypes import endpoint, port, positive_int
+from stiction.argtypes import count_up_to, endpoint, int_range, port, positive_int
 
 DEFAULT_PORT = 8766
 
@@ -30,21 +30,8 @@ def _study(args: argparse.Namespace) -> Any:
     return study
 
 
-def _participants(text: str) -> int:
-    value = positive_int(text)
-    if value > MAX_SIMULATED:
-        raise argparse.ArgumentTypeError(f"must be at most {MAX_SIMULATED}, got {value}")
-    return value
-
-
-def _seed(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if not 0 <= value < 2**63:
-        raise argparse.ArgumentTypeError(f"must be between 0 and 2^63-1, got {value}")
-    return value
+_participants = count_up_to(MAX_SIMULATED)
+_seed = int_range(0, 2**63 - 1)
 
 
 def _check(args: argparse.Namespace) -> int:
