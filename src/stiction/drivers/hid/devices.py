@@ -76,69 +76,72 @@ def _pair_m(v: object) -> tuple[float, float]:
     return float(v[0]) / 1000.0, float(v[1]) / 1000.0
 
 
-def family_fits(eff: Mapping[str, object], own: bytes) -> bool:
-    """True if a family with this `report_length` is about the interface with descriptor `own`.
+@dataclass(frozen=True, slots=True)
+class Interface:
+    """What a catalogue entry's reader choices look at in the interface's own descriptor."""
+
+    lengths: frozenset[int]
+    """The byte sizes (report ID included, as hidraw delivers reports) of the input
+    reports it declares but does not describe as a pen."""
+    any_pen: bool
+    """It describes a pen report (which it is then read by)."""
+
+    @staticmethod
+    def of(own: bytes) -> Interface | None:
+        """None if the descriptor does not parse."""
+        from stiction.drivers.hid.descriptor import parse_descriptor
+        from stiction.drivers.hid.pen import build_mappings
+        from stiction.errors import DescriptorError, DeviceError
+
+        try:
+            desc = parse_descriptor(own)
+        except DescriptorError:
+            return None
+        try:
+            readable = build_mappings(desc, "family check", (1.0, 1.0))
+        except DeviceError:
+            readable = {}
+        lengths = frozenset(
+            rep.byte_size for rid, rep in desc.input_reports.items() if rid not in readable
+        )
+        return Interface(lengths, bool(readable))
+
+
+def family_fits(eff: Mapping[str, object], interface: Interface | None) -> bool:
+    """True if a family with this `report_length` is about the interface.
 
     A tablet's pen and touch interfaces share its vid:pid; OpenTabletDriver
-    tells them apart by input report length (report ID byte included, as
-    hidraw delivers reports), so a family goes only where the device's own
-    descriptor declares an input report that long, and one it does not
-    already describe as a pen: an XP-Pen's firmware pen interface declares
-    its 10-byte pen report in full, and is read by it, while the vendor-mode
-    report the family reads comes on another interface. Without a length
-    (the models sharing the id disagree on it) the family goes only where
-    the descriptor describes no pen at all. An unparsable descriptor keeps
-    the family (it may be why the entry exists).
+    tells them apart by input report length, so a family goes only where the
+    device's own descriptor declares an input report that long, and one it
+    does not already describe as a pen: an XP-Pen's firmware pen interface
+    declares its 10-byte pen report in full, and is read by it, while the
+    vendor-mode report the family reads comes on another interface. Without
+    a length (the models sharing the id disagree on it) the family goes only
+    where the descriptor describes no pen at all. An unparsable descriptor
+    (`interface` None) keeps the family (it may be why the entry exists).
     """
-    if "family" not in eff:
+    if "family" not in eff or interface is None:
         return True
-    found = _unread_lengths(own)
-    if found is None:
-        return True
-    lengths, any_pen = found
     length = eff.get("report_length")
     if not isinstance(length, int):  # models of this id disagree on it
-        return not any_pen
-    return length in lengths
+        return not interface.any_pen
+    return length in interface.lengths
 
 
-def _unread_lengths(own: bytes) -> tuple[frozenset[int], bool] | None:
-    """The byte sizes (report ID included) of the input reports descriptor `own` declares
-    but does not describe as a pen, and whether it describes any pen; None if it
-    does not parse."""
-    from stiction.drivers.hid.descriptor import parse_descriptor
-    from stiction.drivers.hid.pen import build_mappings
-    from stiction.errors import DescriptorError, DeviceError
-
-    try:
-        desc = parse_descriptor(own)
-    except DescriptorError:
-        return None
-    try:
-        readable = build_mappings(desc, "family check", (1.0, 1.0))
-    except DeviceError:
-        readable = {}
-    lengths = frozenset(
-        rep.byte_size for rid, rep in desc.input_reports.items() if rid not in readable
-    )
-    return lengths, bool(readable)
-
-
-def pick_variant(variants: object, own: bytes) -> tuple[str, Mapping[str, object]] | None:
+def pick_variant(
+    variants: object, interface: Interface | None
+) -> tuple[str, Mapping[str, object]] | None:
     """The `by_report_length` variant for this interface: the one whose length is that
-    of an input report its descriptor `own` declares and does not read as a pen.
+    of an input report its descriptor declares and does not read as a pen.
 
     None where no variant fits, where the descriptor does not parse (nothing
     tells the models apart then), and where more than one fits: two models'
     reports on one interface is not something either model sends, so
     neither is chosen (as with two catalogue entries matching equally well).
     """
-    if not isinstance(variants, dict):
+    if not isinstance(variants, dict) or interface is None:
         return None
-    found = _unread_lengths(own)
-    if found is None:
-        return None
-    fits = [(k, v) for k, v in variants.items() if int(k) in found[0]]
+    fits = [(k, v) for k, v in variants.items() if int(k) in interface.lengths]
     if len(fits) != 1:
         if fits:
             log.info("report lengths %s all fit this interface: none is used",
@@ -156,14 +159,15 @@ def from_resolved(r: Resolved, own: bytes | None = None) -> DeviceEntry:
     eff = dict(r.effects)
     origin = dict(r.origin)
     variants = eff.pop("by_report_length", None)
-    if own is not None and variants is not None:
-        chosen = pick_variant(variants, own)
+    if own is not None and ("family" in eff or variants is not None):
+        interface = Interface.of(own)  # parsed once, for both choices
+        chosen = pick_variant(variants, interface)
         if chosen is not None:
             eff.update(chosen[1])
             eff["report_length"] = int(chosen[0])
             origin.update(dict.fromkeys(chosen[1], r.origin["by_report_length"]))
-    if own is not None and not family_fits(eff, own):
-        eff.pop("family", None)
+        if not family_fits(eff, interface):
+            eff.pop("family", None)
     if "report_fixup" in eff and "family" in eff and origin["family"].layer == "generated":
         # A hand-written fix-up reads the device's own descriptor; a generated
         # family would swap that descriptor for its own. The hand-written entry
