@@ -44,6 +44,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from stiction import protocol
+from stiction.daemon import warm
 from stiction.daemon.clock import Schedule
 from stiction.daemon.devices import DeviceSlot, Taken, commit_live, drain_live, select_live
 from stiction.daemon.warm import Warmer
@@ -80,15 +81,10 @@ class Prepared:
         Pipeline.adopt(self.run, self.fork)
 
 
-class Loop(Protocol):
-    """What the preparation reads of the daemon (stiction.daemon.service.Daemon)."""
+class Loop(warm.Loop, Protocol):
+    """What the preparation reads of the daemon (stiction.daemon.service.Daemon):
+    what the warm pass reads, and the schedule and the last frames."""
 
-    @property
-    def pipeline(self) -> Pipeline: ...
-    @property
-    def slots(self) -> list[DeviceSlot]: ...
-    @property
-    def publisher(self) -> Any: ...
     @property
     def schedule(self) -> Schedule: ...
     @property
