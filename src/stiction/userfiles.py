@@ -15,7 +15,7 @@ from __future__ import annotations
 import os
 import stat
 from pathlib import Path
-from typing import BinaryIO
+from typing import BinaryIO, TextIO
 
 from stiction.errors import StictionError
 
@@ -32,8 +32,10 @@ def shown(text: object, limit: int = MAX_SHOWN) -> str:
     return f"{s[:limit]}... ({len(s)} characters)"
 
 
-def _open_checked(p: Path, limit: int, error: type[StictionError], what: str) -> int:
-    """A descriptor of the regular file `p` of at most `limit` bytes, opened without blocking."""
+def _open_checked(p: Path, limit: int | None, error: type[StictionError], what: str) -> int:
+    """A descriptor of the regular file `p` of at most `limit` bytes (None: any size),
+    opened without blocking: the file is checked through the descriptor it is read
+    by, so nothing can be swapped in between the check and the read."""
     try:
         fd = os.open(p, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | os.O_NOCTTY)
     except OSError as exc:
@@ -44,7 +46,7 @@ def _open_checked(p: Path, limit: int, error: type[StictionError], what: str) ->
         st = os.fstat(fd)
         if not stat.S_ISREG(st.st_mode):
             raise error(f"{shown(p)}: not a regular file; a {what} must be a file")
-        if st.st_size > limit:
+        if limit is not None and st.st_size > limit:
             raise error(f"{shown(p)}: {st.st_size} bytes; a {what} is at most {limit}")
     except OSError as exc:
         os.close(fd)
@@ -64,6 +66,14 @@ def open_regular(path: str | Path, limit: int, error: type[StictionError], what:
     """
     fd = _open_checked(Path(path), limit, error, what)
     return os.fdopen(fd, "rb")
+
+
+def open_regular_text(path: str | Path, error: type[StictionError], what: str) -> TextIO:
+    """`path` opened to be streamed as UTF-8 text (a CSV of any length), refused
+    like `read_regular_text` refuses it but with no size bound: the reader holds
+    one row at a time, and a regular file cannot block."""
+    fd = _open_checked(Path(path), None, error, what)
+    return open(fd, newline="", encoding="utf-8")
 
 
 def read_regular_text(path: str | Path, limit: int, error: type[StictionError], what: str) -> str:

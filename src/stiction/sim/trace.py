@@ -18,6 +18,7 @@ from typing import Any, TextIO
 from stiction.errors import RecordingError
 from stiction.sim.contact import ContactSim
 from stiction.sim.state import ContactState
+from stiction.userfiles import open_regular_text
 
 TRACE_COLUMNS = ("t", "x", "y", "contact")
 OUT_COLUMNS = (
@@ -90,13 +91,8 @@ class open_trace:
 
     def __enter__(self) -> Iterator[TraceSample]:
         p = self.path
-        try:
-            p.stat()
-            if not p.is_file():  # a FIFO or /dev/zero would be read for ever
-                raise RecordingError(f"{p}: not a regular file; a trace must be a CSV file")
-            self._f = p.open(newline="", encoding="utf-8")
-        except OSError as exc:
-            raise RecordingError(f"{p}: cannot read trace: {exc.strerror or exc}") from None
+        # a FIFO or /dev/zero would be read for ever: refused, checked on the open descriptor
+        self._f = open_regular_text(p, RecordingError, "trace")
         return _decoding(iter_trace(self._f, str(p)), str(p))
 
     def __exit__(self, *exc: object) -> None:
