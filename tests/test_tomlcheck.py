@@ -89,3 +89,44 @@ def test_a_typo_is_answered_with_the_key_it_was_probably_meant_to_be(tmp_path: P
     r = TomlReader("f.toml", TEXT, Mine)  # nothing close: no guess
     with pytest.raises(Mine, match=r"unknown key; expected one of a, b$"):
         r.table(r.data["top"], ("top",), {"a", "b"})
+
+
+QUOTED = (
+    '[materials."wo.od"]\nmu_z = 1\n'
+    '[materials.wood]\n"mu\\ns" = 2\n'
+    "[materials.'a]b']\n\"x\\ty\" = 3\n"
+)
+
+
+@pytest.mark.parametrize(
+    ("path", "expected"),
+    [
+        # a dot inside a quoted key is part of the name, not a separator
+        (("materials", "wo.od", "mu_z"), 'f.toml:2: materials."wo.od".mu_z: bad'),
+        # a newline in a key is shown as the file writes it: the message stays one line
+        (("materials", "wood", "mu\ns"), 'f.toml:4: materials.wood."mu\\ns": bad'),
+        (("materials", "a]b", "x\ty"), 'f.toml:6: materials."a]b"."x\\ty": bad'),
+    ],
+)
+def test_quoted_keys_are_found_on_their_line_and_quoted_in_one_line(
+    path: tuple[str, ...], expected: str
+) -> None:
+    r = TomlReader("f.toml", QUOTED, Mine)
+    with pytest.raises(Mine) as info:
+        r.fail(path, "bad")
+    assert str(info.value) == expected
+
+
+def test_a_key_thousands_of_characters_long_is_shortened_in_the_message() -> None:
+    key = "k" * 5000
+    r = TomlReader("f.toml", f"{key} = 1\n", Mine)
+    with pytest.raises(Mine) as info:
+        r.table(r.data, (), {"rate"})
+    assert len(str(info.value)) < 400 and "(5000 characters)" in str(info.value)
+
+
+def test_a_scene_key_with_a_newline_is_one_line_naming_its_line() -> None:
+    with pytest.raises(SceneError) as info:
+        parse_scene('[materials.wood]\n"mu\\ns" = 1\n', "s.toml")
+    message = str(info.value)
+    assert "\n" not in message and ':2: materials.wood."mu\\ns": unknown key' in message

@@ -16,6 +16,7 @@ answers "where did this key start".
 from __future__ import annotations
 
 import difflib
+import json
 import re
 import tomllib
 from collections.abc import Collection, Mapping, Sequence
@@ -23,15 +24,28 @@ from pathlib import Path
 from typing import Any, NoReturn
 
 from stiction.errors import StictionError
+from stiction.userfiles import shown
 
 FieldPath = tuple[str | int, ...]
 
-_HEADER = re.compile(r"^\s*(\[\[?)\s*([A-Za-z0-9_.\-\"' ]+?)\s*(\]\]?)\s*(#.*)?$")
-_KEY = re.compile(r"^\s*([A-Za-z0-9_\-\"'. ]+?)\s*=")
+#: a key as written: bare parts, "basic" (with escapes) or 'literal' quoted parts, dots
+_KEY_TEXT = r"""(?:"(?:[^"\\]|\\.)*"|'[^']*'|[A-Za-z0-9_.\- ])+?"""
+_HEADER = re.compile(rf"^\s*(\[\[?)\s*({_KEY_TEXT})\s*(\]\]?)\s*(#.*)?$")
+_KEY = re.compile(rf"^\s*({_KEY_TEXT})\s*=")
 
 
 def _split_key(key: str) -> tuple[str, ...]:
-    return tuple(part.strip().strip("\"'") for part in key.split("."))
+    """The path a (dotted, maybe quoted) key names, as tomllib reads it: a quoted
+    key may hold dots, escapes and newlines, which splitting on "." gets wrong."""
+    try:
+        node: Any = tomllib.loads(f"{key} = 0")
+    except tomllib.TOMLDecodeError:
+        return tuple(part.strip().strip("\"'") for part in key.split("."))
+    path: list[str] = []
+    while isinstance(node, dict) and len(node) == 1:
+        ((name, node),) = node.items()
+        path.append(name)
+    return tuple(path)
 
 
 def _bracket_balance(text: str) -> int:
@@ -101,14 +115,24 @@ def line_of(lines: dict[FieldPath, int], path: Sequence[str | int]) -> int | Non
     return None
 
 
+_BARE = re.compile(r"[A-Za-z0-9_-]+")
+
+
 def format_path(path: Sequence[str | int]) -> str:
-    """``("regions", 2, "radius")`` -> ``regions[2].radius``."""
+    """``("regions", 2, "radius")`` -> ``regions[2].radius``.
+
+    A key that is not a bare TOML key is written as the file would quote it
+    (``"a\\nb"``), so a newline, a dot or a control character in a key can
+    neither break the one-line message nor hide which key is meant; a very
+    long one is shortened like any repeated user string."""
     out = ""
     for part in path:
         if isinstance(part, int):
             out += f"[{part}]"
-        else:
-            out += f".{part}" if out else part
+            continue
+        name = part if _BARE.fullmatch(part) else json.dumps(part, ensure_ascii=False)
+        name = shown(name)
+        out += f".{name}" if out else name
     return out
 
 

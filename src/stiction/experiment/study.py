@@ -16,7 +16,7 @@ from pathlib import Path
 from typing import Any
 
 from stiction.errors import StictionError
-from stiction.tomlcheck import TomlReader, unknown_key
+from stiction.tomlcheck import FieldPath, TomlReader, format_path, unknown_key
 from stiction.userfiles import read_regular_text
 
 PRESET_DIR = Path(__file__).resolve().parent / "presets"
@@ -109,17 +109,22 @@ _REQUIRED_TABLES = ("study", "standard", "comparison")
 class _FieldError(StudyError):
     """A StudyError about one field; parse_study adds the field's line to it."""
 
-    def __init__(self, where: str, field: str, message: str) -> None:
-        super().__init__(f"{where}: {field}: {message}")
-        self.field = field
+    def __init__(self, where: str, field: str | FieldPath, message: str) -> None:
+        # "study.method" for the fixed names; a tuple where a part is the user's
+        # key or an index, which a dotted string would split or quote wrongly
+        path = tuple(field.split(".")) if isinstance(field, str) else field
+        super().__init__(f"{where}: {format_path(path)}: {message}")
+        self.field = path
         self.message = message
 
 
-def _fail(where: str, field: str, message: str) -> StudyError:
+def _fail(where: str, field: str | FieldPath, message: str) -> StudyError:
     return _FieldError(where, field, message)
 
 
-def _number(where: str, field: str, value: Any, *, lo: float, hi: float = math.inf) -> float:
+def _number(
+    where: str, field: str | FieldPath, value: Any, *, lo: float, hi: float = math.inf
+) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)):
         raise _fail(where, field, f"must be a number, got {value!r}")
     v = float(value)
@@ -138,14 +143,14 @@ def _check_shape(where: str, data: dict[str, Any]) -> None:
         keys = _SCHEMA[table]
         for key, item in value.items():
             if key not in keys:
-                raise _fail(where, f"{table}.{key}", unknown_key(key, keys))
+                raise _fail(where, (table, key), unknown_key(key, keys))
             typ, _ = keys[key]
             if (isinstance(item, bool) and typ is not bool) or not isinstance(item, typ):
                 kind = typ.__name__ if isinstance(typ, type) else "number"
-                raise _fail(where, f"{table}.{key}", f"must be a {kind}, got {item!r}")
+                raise _fail(where, (table, key), f"must be a {kind}, got {item!r}")
         for key, (_, required) in keys.items():
             if required and key not in value:
-                raise _fail(where, f"{table}.{key}", "missing (required)")
+                raise _fail(where, (table, key), "missing (required)")
     for table in _REQUIRED_TABLES:
         if table not in data:
             raise _fail(where, table, "missing table (required)")
@@ -158,8 +163,7 @@ def parse_study(text: str, where: str) -> Study:
     try:
         return _build(reader.data, where)
     except _FieldError as exc:
-        path = tuple(exc.field.split("."))
-        raise StudyError(f"{reader.location(path)}: {exc.message}") from None
+        raise StudyError(f"{reader.location(exc.field)}: {exc.message}") from None
 
 
 def _build(data: dict[str, Any], where: str) -> Study:
@@ -191,14 +195,15 @@ def _build(data: dict[str, Any], where: str) -> Study:
 
     params = dict(DEFAULT_PARAMS)
     for key, value in params_in.items():
-        params[key] = _number(where, f"params.{key}", value, lo=0.0 if key == "mu_k" else 1e-12)
+        params[key] = _number(where, ("params", key), value, lo=0.0 if key == "mu_k" else 1e-12)
 
     standard = _number(where, "standard.mu_s", data["standard"]["mu_s"], lo=0.0, hi=10.0)
     comps_raw = data["comparison"]["mu_s"]
     if not comps_raw:
         raise _fail(where, "comparison.mu_s", "needs at least one value")
     comps = tuple(
-        _number(where, f"comparison.mu_s[{i}]", v, lo=0.0, hi=10.0) for i, v in enumerate(comps_raw)
+        _number(where, ("comparison", "mu_s", i), v, lo=0.0, hi=10.0)
+        for i, v in enumerate(comps_raw)
     )
     if len(set(comps)) != len(comps):
         raise _fail(where, "comparison.mu_s", f"has repeated values: {list(comps_raw)}")
@@ -229,7 +234,7 @@ def _build(data: dict[str, Any], where: str) -> Study:
     start = _number(where, "answer.start", answer.get("start", 1.0), lo=0.01, hi=100.0)
     steps_raw = answer.get("steps", list(DEFAULT_STEPS))
     steps = tuple(
-        _number(where, f"answer.steps[{i}]", v, lo=-100.0, hi=100.0)
+        _number(where, ("answer", "steps", i), v, lo=-100.0, hi=100.0)
         for i, v in enumerate(steps_raw)
     )
     if method == "ratio" and (not steps or any(v == 0 for v in steps)):
