@@ -161,6 +161,23 @@ def test_every_shared_descriptor_has_position_fields_wide_enough(hid_data: Path)
     assert checked > 300
 
 
+def test_a_broken_touch_report_beside_a_good_pen_leaves_the_pen_readable() -> None:
+    """One input device per kind, as the kernel makes them: a touch screen whose X
+    cannot be read costs the node its touch, not its pen (and the reverse)."""
+    narrow_touch = _fingers(1, contact_id=True).replace(
+        field(1, 0x30, 0, 4000, 16, phi=400, unit=CM, exp=-1),
+        field(1, 0x30, 0, 4000, 8, phi=400, unit=CM, exp=-1),
+    )
+    good_pen = pen(collection(0x20, pen_body()))
+    stream = ReportStream(parse_descriptor(good_pen + narrow_touch), "Acme Display")
+    assert stream.kind == "pen" and stream.surface_size == pytest.approx((0.254, 0.1524))
+    narrow_pen = pen(collection(0x20, pen_body(x_bits=8)))
+    stream = ReportStream(parse_descriptor(narrow_pen + _fingers(1, True)), "Acme Display")
+    assert stream.kind == "touchscreen" and stream.surface_size == pytest.approx((0.4, 0.3))
+    with pytest.raises(DeviceError, match="X field is 8 bits wide"):
+        ReportStream(parse_descriptor(narrow_pen + pen(collection(0x20, pen_body()), 5)), "A")
+
+
 # -- several contacts in one report ---------------------------------------------------
 
 

@@ -218,10 +218,11 @@ def build_mappings(
     A report counts when its application collection is a digitizer (or
     Wacom's vendor digitizer), or when the device table lists it in
     `pen_reports`. Raises DeviceError when a contact report has no physical
-    size and none is given.
+    size and none is given, or a position field that cannot be an axis
+    (`_position_defect`), unless the node has a readable report of another kind.
     """
     mappings: dict[int, ReportMapping] = {}
-    unsized: list[tuple[str | None, SizeUnknown]] = []  # (kind, why) of reports left out
+    unsized: list[tuple[str | None, DeviceError]] = []  # (kind, why) of reports left out
     pointer_pens = not _has_digitizer(desc)
     for rid, report in desc.input_reports.items():
         page = report.application >> 16
@@ -245,8 +246,10 @@ def build_mappings(
             fx = report.fields[decoder.elements[el[GD_X]].field_index]
             fy = report.fields[decoder.elements[el[GD_Y]].field_index]
             defect = _position_defect(device, rid, fx, fy)
-            if defect is not None:
-                raise defect
+            if defect is not None:  # left out like a report without a size (below)
+                unsized.append((report_kind(report, pointer_pens), defect))
+                skip = True
+                break
             w = _axis_size(fx, size_m[0] if size_m else None)
             h = _axis_size(fy, size_m[1] if size_m else None)
             if w is None or h is None:
@@ -304,14 +307,15 @@ def build_mappings(
             None,
         )
         mappings[rid] = ReportMapping(decoder, tuple(contacts), count_el)
-    # A report without a size is left out only beside reports of another kind
-    # that have one: the kernel makes one input device per kind, and libinput
-    # drops a tablet without resolution while the node's touch screen works
-    # (Huion Kamvas 13's touch interface also declares the firmware pen in in^3).
+    # A report without a size, or with a position field that cannot be an axis,
+    # is left out only beside reports of another kind that are readable: the
+    # kernel makes one input device per kind, and libinput drops a tablet
+    # without resolution while the node's touch screen works (Huion Kamvas 13's
+    # touch interface also declares the firmware pen in in^3).
     kept = {report_kind(desc.input_reports[rid], pointer_pens) for rid in mappings}
-    for kind, why in unsized:
+    for kind, refusal in unsized:
         if not kept or kind in kept:
-            raise why
+            raise refusal
     return mappings if size_m else _one_panel(mappings)
 
 
@@ -415,11 +419,16 @@ def report_kind(report: Report, pointer_pens: bool = False) -> str | None:
 
 
 def _has_length(report: Report) -> bool:
-    """Whether the report's X axis has a physical length (a size of its own)."""
-    return any(
-        canonical_usage(f.usage) == GD_X and f.variable and extent_m(f) is not None
+    """Whether the report's X axis has a physical length (a size of its own), and
+    no position field of it is one `_position_defect` refuses."""
+    xy = [
+        f
         for f in report.fields
-    )
+        if canonical_usage(f.usage) in (GD_X, GD_Y) and f.variable and not f.constant
+    ]
+    if any(f.logical_max <= f.logical_min or f.bit_size < bits_needed(f) for f in xy):
+        return False
+    return any(canonical_usage(f.usage) == GD_X and extent_m(f) is not None for f in xy)
 
 
 def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset()) -> str:
