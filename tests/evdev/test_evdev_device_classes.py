@@ -223,6 +223,24 @@ def test_a_pen_whose_only_tool_is_an_airbrush_is_a_pen(tmp_path: Path) -> None:
     assert [s.tool.value for s in samples] == ["pen"] * 4  # type: ignore[attr-defined]
 
 
+@pytest.mark.parametrize(
+    ("props", "kind"),
+    [
+        ((e.INPUT_PROP_DIRECT,), "touchscreen"),
+        ((e.INPUT_PROP_POINTER,), "touchpad"),
+        ((), "touchpad"),
+    ],
+)
+def test_a_single_touch_node_with_finger_tools_is_a_screen_only_when_direct(
+    props: tuple[int, ...], kind: str
+) -> None:
+    """systemd's input_id: finger tool bits make a touchpad only without INPUT_PROP_DIRECT
+    (a direct one was read as a touchpad, so mapped as one)."""
+    keys = frozenset({e.BTN_TOUCH, e.BTN_TOOL_FINGER, e.BTN_TOOL_DOUBLETAP})
+    axes = {e.ABS_X: ax(0, 4000, 10), e.ABS_Y: ax(0, 3000, 10)}
+    assert device("Acme", keys, axes, *props).kind == kind
+
+
 @pytest.mark.parametrize("slots", [1, 64, 1024])
 def test_protocol_b_reads_one_slot_and_many(tmp_path: Path, slots: int) -> None:
     desc = device("Acme TP", frozenset({e.BTN_TOUCH, e.BTN_TOOL_FINGER}), mt_axes(slots))

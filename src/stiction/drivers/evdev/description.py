@@ -180,8 +180,8 @@ class DeviceDescription:
             return "pen"
         if has_xy and ecodes.BTN_STYLUS in self.keys and ecodes.ABS_PRESSURE in self.axes:
             return "pen"  # UC-Logic style: stylus buttons and pressure, no tool bit
-        if has_xy and ecodes.BTN_TOOL_FINGER in self.keys:
-            return "touchpad"
+        if has_xy and ecodes.BTN_TOOL_FINGER in self.keys and not direct:
+            return "touchpad"  # systemd's input_id: finger tools on a direct node are a screen
         if has_xy and ecodes.BTN_TOUCH in self.keys:
             return "touchscreen" if direct else "touchpad"
         if self.udev.get("ID_INPUT_TOUCHPAD") == "1" and has_xy:
