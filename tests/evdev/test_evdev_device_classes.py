@@ -135,6 +135,23 @@ REFUSED = {
         ),
         "empty X range (ABS_MT_POSITION_X 4000..0)",
     ),
+    # X/Y and no key that touches: measuring it would not make it a surface
+    "joystick": (
+        device(
+            "Acme Stick",
+            frozenset({e.BTN_TRIGGER, e.BTN_THUMB}),
+            {e.ABS_X: ax(-127, 127), e.ABS_Y: ax(-127, 127)},
+        ),
+        "not a pen, touchpad or touchscreen: it has X/Y axes but no touch",
+    ),
+    "virtual machine's absolute pointer": (
+        device(
+            "QEMU USB Tablet",
+            frozenset({e.BTN_LEFT, e.BTN_RIGHT}),
+            {e.ABS_X: ax(0, 32767), e.ABS_Y: ax(0, 32767)},
+        ),
+        "(a joystick, or an absolute pointer)",
+    ),
     "no Y axis": (
         device("Acme Pen", PEN_KEYS, {e.ABS_X: ax(0, 1000, 10)}),
         "no X/Y position axes",

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 from evdev import ecodes
 
 from stiction.drivers.catalogue.resolve import lookup as catalogue_lookup
-from stiction.drivers.evdev.description import DeviceDescription
+from stiction.drivers.evdev.description import FINGER_TOOLS, PEN_TOOLS, DeviceDescription
 from stiction.drivers.sample import plausible_side
 from stiction.errors import DeviceError, SizeUnknown
 
@@ -70,6 +70,11 @@ def lookup(desc: DeviceDescription) -> SizeEntry | None:
     )
 
 
+_CONTACT_KEYS = frozenset(
+    (*PEN_TOOLS, *FINGER_TOOLS, ecodes.BTN_TOUCH, ecodes.BTN_STYLUS, ecodes.BTN_STYLUS2)
+)
+
+
 def unusable(desc: DeviceDescription) -> str | None:
     """Why no size can make this node a surface, in words naming it; None if one can.
 
@@ -100,6 +105,15 @@ def unusable(desc: DeviceDescription) -> str | None:
                 f"{who} declares an empty {name} range ({ecodes.ABS[code]} "
                 f"{a.minimum}..{a.maximum}): no size can make it a surface"
             )
+    # X/Y and nothing that touches: a joystick, a virtual machine's absolute
+    # pointer (BTN_LEFT only). A pen with mouse and lens tools only, or a pen
+    # with pressure and no key at all, is still read.
+    touches = desc.keys & _CONTACT_KEYS or desc.is_multitouch or ecodes.ABS_PRESSURE in desc.axes
+    if desc.kind == "other" and not touches:
+        return (
+            f"{who} is not a pen, touchpad or touchscreen: it has X/Y axes but no "
+            "touch, tool or stylus key (a joystick, or an absolute pointer)"
+        )
     return None
 
 
