@@ -178,6 +178,25 @@ def test_a_broken_touch_report_beside_a_good_pen_leaves_the_pen_readable() -> No
         ReportStream(parse_descriptor(narrow_pen + pen(collection(0x20, pen_body()), 5)), "A")
 
 
+def test_a_touch_interface_without_a_size_does_not_take_the_catalogues_pen_area() -> None:
+    """OpenTabletDriver's sizes are pen areas: the Wacom PTH-660's (224 x 148 mm) was
+    given to a touch interface of its id that declared no unit; evdev never did."""
+    unitless = _fingers(2, contact_id=True).replace(
+        field(1, 0x30, 0, 4000, 16, phi=400, unit=CM, exp=-1), field(1, 0x30, 0, 4000, 16)
+    )
+    facts = describe_device(0x056A, 0x0357, "Wacom Intuos Pro M Finger", unitless)
+    assert facts.kind == "touchscreen" and facts.surface_m is None
+    assert "no physical size" in str(facts.problem)
+    # the same id's pen interface without a size still takes it
+    pen_facts = describe_device(0x056A, 0x0357, "Wacom Intuos Pro M Pen", pen(
+        collection(0x20, flags(0x42, 0x32) + field(1, 0x30, 0, 44800, 16)
+                   + field(1, 0x31, 0, 29600, 16))
+    ))  # fmt: skip
+    assert pen_facts.size_from == "catalogue" and pen_facts.surface_m == pytest.approx(
+        (0.224, 0.148)
+    )
+
+
 # -- several contacts in one report ---------------------------------------------------
 
 
