@@ -22,6 +22,7 @@ from evdev_mockfiles import run_under_umockdev, stiction_cmd, umockdev_available
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from stiction.cli import main
 from stiction.drivers.evdev import evemu, replay
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
 from stiction.drivers.evdev.recording import Recording
@@ -185,6 +186,22 @@ def test_the_pad_is_not_listed_as_a_pen_by_its_bits_or_its_udev_tags() -> None:
     assert device("Intuos4", PEN_KEYS | {e.BTN_0}, pen_axes()).kind == "pen"
     uclogic = device("UC-Logic", frozenset({e.BTN_STYLUS, e.BTN_TOUCH, e.BTN_0}), pen_axes())
     assert uclogic.kind == "pen" and not uclogic.is_pad
+
+
+@pytest.mark.parametrize("case", ["button pad", "Y range min > max", "protocol A only"])
+def test_describe_says_why_and_gives_no_size(
+    tmp_path: Path, case: str, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """`stiction evdev describe` printed the inverted range's negative width as its
+    size (from the kernel); it now gives none and the reason opening would give."""
+    desc, reason = REFUSED[case]
+    path = recorded(tmp_path, desc, [(1, 0, 0, 0, 0)])
+    assert main(["evdev", "describe", str(path), "--json"]) == 0
+    info = json.loads(capsys.readouterr().out)
+    assert info["size_m"] is None and info["size_source"] is None
+    assert reason in info["problem"]
+    assert main(["evdev", "describe", str(path)]) == 0
+    assert f"note: {info['problem']}" in capsys.readouterr().out
 
 
 # -- asked for a size, saying why the node's own does not count --------------------
