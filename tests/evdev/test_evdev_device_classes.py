@@ -18,14 +18,21 @@ from pathlib import Path
 
 import pytest
 from evdev import ecodes as e
-from evdev_mockfiles import run_under_umockdev, stiction_cmd, umockdev_available, write
+from evdev_mockfiles import (
+    gi_available,
+    run_controller,
+    run_under_umockdev,
+    stiction_cmd,
+    umockdev_available,
+    write,
+)
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stiction.cli import main
 from stiction.drivers.evdev import evemu, replay
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
-from stiction.drivers.evdev.recording import Recording
+from stiction.drivers.evdev.recording import Recording, load
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.errors import DeviceError, RecordingError, SizeUnknown
 
@@ -443,3 +450,56 @@ def test_live_pad_and_broken_nodes_are_not_listed_and_say_why_when_opened(tmp_pa
     assert out["opened"][nodes[0]] == [0.25, 0.15]
     assert "'Wacom Intuos S Pad' (056a:0374) is a tablet's button pad" in out["opened"][nodes[1]]
     assert "empty X range (ABS_MT_POSITION_X 4000..0)" in out["opened"][nodes[2]]
+
+
+REPLUG_READER = textwrap.dedent(
+    """
+    import json, sys
+    from stiction.drivers.evdev import discover, open_device
+    from stiction.errors import DeviceError
+    src = open_device(sys.argv[1])
+    print("ready", flush=True)
+    try:
+        for s in src.samples():
+            print(json.dumps([s.x, s.y, s.in_range]), flush=True)
+    except DeviceError as exc:
+        print(json.dumps({"error": str(exc)}), flush=True)
+    try:
+        open_device(sys.argv[1])
+    except DeviceError as exc:
+        print(json.dumps({"reopen_failed": str(exc)}), flush=True)
+    assert sys.stdin.readline() == "replugged\\n"
+    listed = [d.path for d in discover()]
+    try:
+        again = open_device("/dev/input/event6")
+        print(json.dumps({"opened": again.name, "listed": listed}), flush=True)
+    except DeviceError as exc:
+        print(json.dumps({"refused": str(exc), "listed": listed}), flush=True)
+    """
+)
+
+
+@pytest.mark.umockdev
+@pytest.mark.skipif(not gi_available(), reason="needs system python3 with gi + UMockdev typelib")
+def test_a_node_replugged_as_another_device_is_judged_afresh(
+    evdev_data: Path, tmp_path: Path
+) -> None:
+    """The pen is unplugged mid-stroke; what comes back is the tablet's pad. It is
+    described from its own capabilities: not listed, and refused with the pad's
+    reason, not read with the pen's size it replaced."""
+    rec = load(evdev_data / "wacom-cintiq-13hd-touch-pen.evemu")
+    syn = [i for i, ev in enumerate(rec.events) if ev[2:4] == (0, 0)]
+    rec.events = rec.events[: syn[19] + 1]
+    write(rec, tmp_path, num=5, udev={"ID_INPUT": "1", "ID_INPUT_TABLET": "1"})
+    pad = Recording(WACOM_PAD, [(1, 0, 0, 0, 0)], tmp_path / "p", tmp_path / "p")
+    write(pad, tmp_path, num=6, udev={"ID_INPUT_TABLET": "1", "ID_INPUT_TABLET_PAD": "1"})
+    out = run_controller(tmp_path, REPLUG_READER, "20")
+    lines = out["reader"]
+    samples = [json.loads(x) for x in lines if x.startswith("[")]
+    assert len(samples) == 21 and samples[-1][2] is False, out  # the stroke ended
+    assert any("went away" in x for x in lines if x.startswith('{"error"')), out
+    (last,) = [
+        json.loads(x) for x in lines if x.startswith('{"refused"') or x.startswith('{"opened"')
+    ]
+    assert "'Wacom Intuos S Pad' (056a:0374) is a tablet's button pad" in last["refused"], out
+    assert "/dev/input/event6" not in last["listed"]
