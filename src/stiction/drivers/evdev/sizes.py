@@ -92,7 +92,8 @@ def unusable(desc: DeviceDescription) -> str | None:
     if desc.mt_protocol_a_only:
         return (
             f"{who} reports touches only through the multi-touch protocol A "
-            "(ABS_MT_POSITION_X/Y without slots), which stiction does not read; "
+            "(ABS_MT_POSITION_X/Y without slots and tracking ids), which stiction "
+            "does not read; "
             "its hidraw node may be readable instead (`stiction devices`)"
         )
     cx, cy = desc.position_codes
