@@ -399,9 +399,11 @@ def test_a_tilt_sent_beyond_its_range_stays_within_the_range(tmp_path: Path) -> 
 LIVE_SCRIPT = textwrap.dedent(
     """
     import json, sys
+    from stiction.drivers.discovery import evdev_size
     from stiction.drivers.evdev import discover, open_device
     from stiction.errors import DeviceError
     out = {"listed": [[d.path, d.kind] for d in discover()], "opened": {}}
+    out["size_from"] = [evdev_size(node) for node in sys.argv[1:]]
     for node in sys.argv[1:]:
         try:
             src = open_device(node)
@@ -448,6 +450,10 @@ def test_live_pad_and_broken_nodes_are_not_listed_and_say_why_when_opened(tmp_pa
     # plain) and says what is wrong when opened
     assert out["listed"] == [[nodes[0], "pen"], [nodes[2], "touchscreen"]]
     assert out["opened"][nodes[0]] == [0.25, 0.15]
+    # what backend choice sees (drivers/discovery.py): the broken touch screen's
+    # resolution made it "sized" by the kernel, so its evdev node was chosen
+    # over a hidraw twin that could be read
+    assert out["size_from"] == ["kernel", "", ""]
     assert "'Wacom Intuos S Pad' (056a:0374) is a tablet's button pad" in out["opened"][nodes[1]]
     assert "empty X range (ABS_MT_POSITION_X 4000..0)" in out["opened"][nodes[2]]
 
