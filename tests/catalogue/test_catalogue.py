@@ -685,7 +685,7 @@ def test_an_evdev_size_no_surface_has_is_taken_as_none(
     }
     unknown = DeviceDescription("Acme Pen", 3, 0x1234, 0x0001, keys=frozenset(keys), axes=axes)
     assert not sizes.kernel_size_plausible(unknown)
-    with pytest.raises(DeviceError, match="no resolution"):
+    with pytest.raises(DeviceError, match="surface, which no device has"):
         sizes.require(sizes.apply(unknown))
     assert "implausible_size" in caplog.text
     # the same node of a device the catalogue knows (Wacom CTL-4100: 152 x 95 mm)

@@ -10,6 +10,7 @@ property). The longer, random run:
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from hidtools.hid import ReportDescriptor as HtDescriptor
@@ -52,7 +53,11 @@ def _exercise(desc: ReportDescriptor, reports: list[bytes]) -> None:
         return  # e.g. an empty X range: refused with a message, which is fine
     for i, r in enumerate(reports):
         for s in stream.feed(float(i), r):
-            assert s.x == s.x and s.y == s.y  # never NaN
+            # on the surface given, whatever the descriptor or the report says
+            assert 0.0 <= s.x <= 0.2 and 0.0 <= s.y <= 0.1
+            assert s.pressure is None or 0.0 <= s.pressure <= 1.0
+            for tilt in (s.tilt_x, s.tilt_y):
+                assert tilt is None or math.isfinite(tilt)
     assert stream.stats["reports"] == len(reports)
 
 

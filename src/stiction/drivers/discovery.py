@@ -123,7 +123,9 @@ def evdev_size(path: str, size_mm: tuple[float, float] | None = None) -> str | N
         return None
     try:
         raw = describe(dev)
-        if _has_resolution(raw) and size_mm is None:
+        if sizes.unusable(raw) is not None:
+            return ""  # no size makes it a surface (a pad, an inverted axis): not sized
+        if _has_resolution(raw) and size_mm is None and sizes.kernel_size_plausible(raw):
             return "kernel"
         if not _has_resolution(sizes.apply(raw, size_mm)):
             return ""

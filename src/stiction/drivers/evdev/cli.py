@@ -195,8 +195,14 @@ def _describe(args: argparse.Namespace) -> int:
 
         desc = load(args.source, args.events).description
     fixed = sizes.apply(desc)
-    units = SurfaceUnits(fixed)
-    size = units.surface_size
+    problem: str | None = None
+    try:
+        sizes.require(fixed)
+    except StictionError as exc:
+        problem = str(exc)
+    # a node no size can fix has none, whatever its axes multiply to (an inverted
+    # range with a resolution gave a negative width)
+    size = SurfaceUnits(fixed).surface_size if problem is None else None
     info = {
         "name": desc.name,
         "id": [desc.bustype, desc.vendor, desc.product, desc.version],
@@ -204,22 +210,25 @@ def _describe(args: argparse.Namespace) -> int:
         "multitouch_slots": desc.num_slots,
         "size_m": list(size) if size else None,
         "size_source": (
-            "kernel" if SurfaceUnits(desc).resolution_known else "device table" if size else None
+            None
+            if size is None
+            else "kernel"
+            if SurfaceUnits(desc).resolution_known
+            else "device table"
         ),
         "axes": {
             _abs_name(code): [a.minimum, a.maximum, a.resolution] for code, a in desc.axes.items()
         },
+        "problem": problem,
     }
     if args.json:
         print(json.dumps(info))
     else:
         for k, v in info.items():
-            print(f"{k}: {v}")
-        if size is None:
-            try:
-                sizes.require(fixed)
-            except StictionError as exc:
-                print(f"note: {exc}")
+            if k != "problem":
+                print(f"{k}: {v}")
+        if problem is not None:
+            print(f"note: {problem}")
     return 0
 
 

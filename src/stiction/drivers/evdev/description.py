@@ -8,7 +8,7 @@ hardware or a file.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 from evdev import ecodes
 
@@ -34,6 +34,8 @@ PEN_TOOLS = (
     ecodes.BTN_TOOL_MOUSE,
     ecodes.BTN_TOOL_LENS,
 )
+#: the pen tools beside BTN_TOOL_PEN that a stylus node may declare alone
+_STYLUS_TOOLS = (ecodes.BTN_TOOL_BRUSH, ecodes.BTN_TOOL_PENCIL, ecodes.BTN_TOOL_AIRBRUSH)
 FINGER_TOOLS = (
     ecodes.BTN_TOOL_FINGER,
     ecodes.BTN_TOOL_DOUBLETAP,
@@ -74,6 +76,9 @@ class DeviceDescription:
     other: dict[int, frozenset[int]] = field(default_factory=dict)
     #: udev properties where known (ID_INPUT_TABLET=1, ...)
     udev: dict[str, str] = field(default_factory=dict)
+    #: why a resolution the node reported was set aside (sizes.apply), for the
+    #: error that then asks for a size; "" when none was
+    size_note: str = ""
 
     @property
     def vid_pid(self) -> str:
@@ -81,9 +86,16 @@ class DeviceDescription:
 
     @property
     def is_multitouch(self) -> bool:
-        """Protocol B: slots and tracking ids (protocol A devices are read single-touch)."""
+        """Protocol B: slots and tracking ids (protocol A devices are read single-touch).
+
+        A slot axis whose maximum is below 0 declares no slot at all (the kernel
+        never sends one; a recording can): such a node is not read as multi-touch,
+        where it would have given no contact ever.
+        """
+        slot = self.axes.get(ecodes.ABS_MT_SLOT)
         return (
-            ecodes.ABS_MT_SLOT in self.axes
+            slot is not None
+            and slot.maximum >= 0
             and ecodes.ABS_MT_TRACKING_ID in self.axes
             and ecodes.ABS_MT_POSITION_X in self.axes
             and ecodes.ABS_MT_POSITION_Y in self.axes
@@ -104,6 +116,39 @@ class DeviceDescription:
         if self.is_multitouch:
             return ecodes.ABS_MT_POSITION_X, ecodes.ABS_MT_POSITION_Y
         return ecodes.ABS_X, ecodes.ABS_Y
+
+    @property
+    def mt_protocol_a_only(self) -> bool:
+        """Touches only through multi-touch protocol A: ABS_MT_POSITION_X/Y with no
+        usable slots (contacts separated by SYN_MT_REPORT) and no single-touch X/Y
+        to fall back on. stiction reads protocol B and single-touch nodes only."""
+        return (
+            not self.is_multitouch
+            and ecodes.ABS_MT_POSITION_X in self.axes
+            and ecodes.ABS_MT_POSITION_Y in self.axes
+            and not (ecodes.ABS_X in self.axes and ecodes.ABS_Y in self.axes)
+        )
+
+    @property
+    def is_pad(self) -> bool:
+        """A tablet's button pad (ExpressKeys, rings, strips), not a surface.
+
+        udev tags it ID_INPUT_TABLET_PAD; from the bits, systemd's input_id
+        builtin (udev-builtin-input_id.c, `has_pad_buttons`) takes BTN_0 with
+        BTN_STYLUS and no BTN_TOOL_PEN: the kernel's wacom driver gives its pad
+        nodes ABS_X/ABS_Y (0..1) and BTN_STYLUS for old programs. No pad has
+        pressure, so a UC-Logic pen without tool bits is never taken for one.
+        """
+        if ecodes.BTN_TOOL_PEN in self.keys or ecodes.BTN_TOOL_RUBBER in self.keys:
+            return False
+        if self.udev.get("ID_INPUT_TABLET_PAD") == "1":
+            return True
+        return (
+            ecodes.BTN_0 in self.keys
+            and ecodes.BTN_STYLUS in self.keys
+            and ecodes.ABS_PRESSURE not in self.axes
+            and not self.is_multitouch
+        )
 
     @property
     def has_tool_keys(self) -> bool:
@@ -127,12 +172,16 @@ class DeviceDescription:
             return "touchpad"
         if ecodes.BTN_TOOL_PEN in self.keys or ecodes.BTN_TOOL_RUBBER in self.keys:
             return "pen"
+        if self.is_pad:
+            return "other"  # udev tags pads ID_INPUT_TABLET too: buttons, not a surface
+        if has_xy and any(k in self.keys for k in _STYLUS_TOOLS):
+            return "pen"  # a pen whose only tool is an airbrush, pencil or brush
         if self.udev.get("ID_INPUT_TABLET") == "1" and has_xy:
             return "pen"
         if has_xy and ecodes.BTN_STYLUS in self.keys and ecodes.ABS_PRESSURE in self.axes:
             return "pen"  # UC-Logic style: stylus buttons and pressure, no tool bit
-        if has_xy and ecodes.BTN_TOOL_FINGER in self.keys:
-            return "touchpad"
+        if has_xy and ecodes.BTN_TOOL_FINGER in self.keys and not direct:
+            return "touchpad"  # systemd's input_id: finger tools on a direct node are a screen
         if has_xy and ecodes.BTN_TOUCH in self.keys:
             return "touchscreen" if direct else "touchpad"
         if self.udev.get("ID_INPUT_TOUCHPAD") == "1" and has_xy:
@@ -154,15 +203,4 @@ class DeviceDescription:
             a = axes.get(code)
             if a is not None:
                 axes[code] = AbsAxis(a.value, a.minimum, a.maximum, a.fuzz, a.flat, res)
-        return DeviceDescription(
-            self.name,
-            self.bustype,
-            self.vendor,
-            self.product,
-            self.version,
-            self.properties,
-            self.keys,
-            axes,
-            self.other,
-            self.udev,
-        )
+        return replace(self, axes=axes)

@@ -4,8 +4,9 @@ Positions count from the axis minimum (the top-left corner) and divide by the
 kernel's resolution in units/mm (Documentation/input/event-codes.rst:
 "ABS_X/ABS_Y ... resolution in units per millimetre"). Tilt resolution is in
 units per radian; when a driver reports none (old Wacom kernels, tilt 0..127),
-the range is taken to span -64..+64 degrees around its midpoint, as libinput
-does for Wacom-style tilt.
+or one that puts the range's ends beyond 90 degrees from upright, the range
+is taken to span -64..+64 degrees around its midpoint, as libinput does for
+Wacom-style tilt without a resolution.
 """
 
 from __future__ import annotations
@@ -23,6 +24,8 @@ from stiction.drivers.evdev.frames import Contact
 from stiction.drivers.sample import PenSample
 
 _FALLBACK_TILT_DEG = 64.0
+_MAX_TILT_DEG = 90.0
+"""A pen leans at most flat on the surface: 90 degrees from upright."""
 
 
 @dataclass(frozen=True)
@@ -40,10 +43,21 @@ def _pressure_scale(axis: AbsAxis | None) -> _Linear | None:
     return _Linear(axis.minimum, 1.0 / (axis.maximum - axis.minimum))
 
 
+def _tilt_plausible(axis: AbsAxis) -> bool:
+    """The resolution puts both ends of the range within 90 degrees of upright,
+    give or take the kernel's rounding of units/radian to an integer (HID's
+    -90..90 degrees becomes resolution 57, so 90.5 degrees): a driver claiming
+    more (resolution 1 on a +-9000 range: 500,000 degrees) has not said what
+    a unit is, and is read as one that gives no resolution."""
+    res = axis.resolution
+    reach = math.degrees(max(-axis.minimum, axis.maximum) / res)
+    return reach <= _MAX_TILT_DEG * (res + 0.5) / res
+
+
 def _tilt_scale(axis: AbsAxis | None) -> _Linear | None:
     if axis is None or axis.maximum <= axis.minimum:
         return None
-    if axis.resolution > 0 and axis.minimum < 0 < axis.maximum:
+    if axis.resolution > 0 and axis.minimum < 0 < axis.maximum and _tilt_plausible(axis):
         return _Linear(0.0, math.degrees(1.0 / axis.resolution))
     mid = (axis.minimum + axis.maximum) / 2.0
     return _Linear(mid, 2 * _FALLBACK_TILT_DEG / (axis.maximum - axis.minimum))

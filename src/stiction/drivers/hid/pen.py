@@ -11,15 +11,18 @@ because coordinates that are not metres would silently break the physics.
 
 from __future__ import annotations
 
+import logging
 import math
 from collections import Counter
 from dataclasses import dataclass, replace
 
 from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, Report, ReportDescriptor
-from stiction.drivers.hid.units import degrees_per_logical, extent_m, raw_extent_m, unit_name
+from stiction.drivers.hid.units import extent_m, raw_extent_m, tilt_map, unit_name
 from stiction.drivers.sample import PenSample, Tool
 from stiction.errors import DeviceError, SizeUnknown
+
+log = logging.getLogger(__name__)
 
 GD_X, GD_Y = 0x00010030, 0x00010031
 DIG = 0x000D0000
@@ -97,6 +100,13 @@ class ContactLayout:
     pressure_span: int
     tilt_x_deg: float
     tilt_y_deg: float
+    #: degrees at logical 0 (tilt = value * deg + off): non-zero where the field's
+    #: physical range is not centred on its logical 0 (units.tilt_map)
+    tilt_x_off: float = 0.0
+    tilt_y_off: float = 0.0
+    #: a finger without a Contact Identifier: its place among the report's such
+    #: fingers, so that two of them are two contacts (1 + ordinal), not one
+    ordinal: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -143,6 +153,39 @@ def _first_fields(
     return groups
 
 
+def bits_needed(f: Field) -> int:
+    """The bits a field needs to carry its logical range: unsigned when the minimum
+    is not negative (as the kernel and hid-tools read it), else two's complement."""
+    if f.logical_min >= 0:
+        return max(f.logical_max, 0).bit_length()
+    return max(f.logical_max.bit_length(), (-f.logical_min - 1).bit_length()) + 1
+
+
+def _position_defect(device: str, rid: int, fx: Field, fy: Field) -> DeviceError | None:
+    """A position field that cannot be a surface axis, as the error that says so.
+
+    An empty logical range divides by zero; a field narrower than its range
+    (a 4-bit X declared 0..10000, a 0-bit one) can never reach most of the
+    surface, so every position would land in a corner of it: a wrong surface
+    no warning would show. Neither is a size the user could give.
+    """
+    if fx.logical_max <= fx.logical_min or fy.logical_max <= fy.logical_min:
+        return DeviceError(
+            f"{device}: report {rid} has an empty logical range for X or Y "
+            f"(X {fx.logical_min}..{fx.logical_max}, Y {fy.logical_min}..{fy.logical_max})"
+        )
+    for name, f in (("X", fx), ("Y", fy)):
+        need = bits_needed(f)
+        if f.bit_size < need:
+            return DeviceError(
+                f"{device}: report {rid}'s {name} field is {f.bit_size} bits wide but "
+                f"declares logical {f.logical_min}..{f.logical_max}, which needs {need}: "
+                'the descriptor is wrong; give a corrected one (descriptor = "<hex>" in '
+                "its entry of ~/.config/stiction/hid-devices.toml, docs/devices.md)"
+            )
+    return None
+
+
 def _axis_size(f: Field, override: float | None) -> float | None:
     if override is not None:
         return override
@@ -175,10 +218,11 @@ def build_mappings(
     A report counts when its application collection is a digitizer (or
     Wacom's vendor digitizer), or when the device table lists it in
     `pen_reports`. Raises DeviceError when a contact report has no physical
-    size and none is given.
+    size and none is given, or a position field that cannot be an axis
+    (`_position_defect`), unless the node has a readable report of another kind.
     """
     mappings: dict[int, ReportMapping] = {}
-    unsized: list[tuple[str | None, SizeUnknown]] = []  # (kind, why) of reports left out
+    unsized: list[tuple[str | None, DeviceError]] = []  # (kind, why) of reports left out
     pointer_pens = not _has_digitizer(desc)
     for rid, report in desc.input_reports.items():
         page = report.application >> 16
@@ -201,11 +245,11 @@ def build_mappings(
                 continue
             fx = report.fields[decoder.elements[el[GD_X]].field_index]
             fy = report.fields[decoder.elements[el[GD_Y]].field_index]
-            if fx.logical_max <= fx.logical_min or fy.logical_max <= fy.logical_min:
-                raise DeviceError(
-                    f"{device}: report {rid} has an empty logical range for X or Y "
-                    f"(X {fx.logical_min}..{fx.logical_max}, Y {fy.logical_min}..{fy.logical_max})"
-                )
+            defect = _position_defect(device, rid, fx, fy)
+            if defect is not None:  # left out like a report without a size (below)
+                unsized.append((report_kind(report, pointer_pens), defect))
+                skip = True
+                break
             w = _axis_size(fx, size_m[0] if size_m else None)
             h = _axis_size(fy, size_m[1] if size_m else None)
             if w is None or h is None:
@@ -217,15 +261,23 @@ def build_mappings(
                 APPLICATION_KIND.get(report.application) in ("touchpad", "touchscreen")
                 and group_usage.get(gid) not in (DIG_STYLUS, DIG_PUCK)
             )
+            if not finger and any(not c.finger for c in contacts):
+                # A second pen in one report is contact 0 again, and its idle
+                # collection would end the first pen's stroke at every report.
+                # The kernel maps one pen per report too (hid-input gives the
+                # second X no ABS_X); count on the first.
+                log.info("%s: report %d has more than one pen collection: the first "
+                         "is read", device, rid)  # fmt: skip
+                continue
             pmin, pspan = 0, 0
             if TIP_PRESSURE in el:
                 fp = report.fields[decoder.elements[el[TIP_PRESSURE]].field_index]
                 pmin, pspan = fp.logical_min, fp.logical_max - fp.logical_min
-            tx = ty = 1.0
+            tx, tx0, ty, ty0 = 1.0, 0.0, 1.0, 0.0
             if X_TILT in el:
-                tx = degrees_per_logical(report.fields[decoder.elements[el[X_TILT]].field_index])
+                tx, tx0 = tilt_map(report.fields[decoder.elements[el[X_TILT]].field_index])
             if Y_TILT in el:
-                ty = degrees_per_logical(report.fields[decoder.elements[el[Y_TILT]].field_index])
+                ty, ty0 = tilt_map(report.fields[decoder.elements[el[Y_TILT]].field_index])
             contacts.append(
                 ContactLayout(
                     finger=finger,
@@ -238,6 +290,9 @@ def build_mappings(
                     pressure_span=pspan,
                     tilt_x_deg=tx,
                     tilt_y_deg=ty,
+                    tilt_x_off=tx0,
+                    tilt_y_off=ty0,
+                    ordinal=sum(1 for c in contacts if c.finger and CONTACT_ID not in c.el),
                 )
             )
         if skip or not contacts:
@@ -252,14 +307,15 @@ def build_mappings(
             None,
         )
         mappings[rid] = ReportMapping(decoder, tuple(contacts), count_el)
-    # A report without a size is left out only beside reports of another kind
-    # that have one: the kernel makes one input device per kind, and libinput
-    # drops a tablet without resolution while the node's touch screen works
-    # (Huion Kamvas 13's touch interface also declares the firmware pen in in^3).
+    # A report without a size, or with a position field that cannot be an axis,
+    # is left out only beside reports of another kind that are readable: the
+    # kernel makes one input device per kind, and libinput drops a tablet
+    # without resolution while the node's touch screen works (Huion Kamvas 13's
+    # touch interface also declares the firmware pen in in^3).
     kept = {report_kind(desc.input_reports[rid], pointer_pens) for rid in mappings}
-    for kind, why in unsized:
+    for kind, refusal in unsized:
         if not kept or kind in kept:
-            raise why
+            raise refusal
     return mappings if size_m else _one_panel(mappings)
 
 
@@ -363,11 +419,16 @@ def report_kind(report: Report, pointer_pens: bool = False) -> str | None:
 
 
 def _has_length(report: Report) -> bool:
-    """Whether the report's X axis has a physical length (a size of its own)."""
-    return any(
-        canonical_usage(f.usage) == GD_X and f.variable and extent_m(f) is not None
+    """Whether the report's X axis has a physical length (a size of its own), and
+    no position field of it is one `_position_defect` refuses."""
+    xy = [
+        f
         for f in report.fields
-    )
+        if canonical_usage(f.usage) in (GD_X, GD_Y) and f.variable and not f.constant
+    ]
+    if any(f.logical_max <= f.logical_min or f.bit_size < bits_needed(f) for f in xy):
+        return False
+    return any(canonical_usage(f.usage) == GD_X and extent_m(f) is not None for f in xy)
 
 
 def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset()) -> str:
@@ -389,6 +450,14 @@ def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset(
         if k in kinds:
             return k
     return "other"
+
+
+def _tilt(v: tuple[int, ...], i: int | None, deg: float, off: float) -> float | None:
+    """Degrees of a tilt value; the offset added only where there is one, as the
+    generated code does (adding 0.0 would turn -0.0 into 0.0)."""
+    if i is None:
+        return None
+    return v[i] * deg + off if off != 0.0 else v[i] * deg
 
 
 class ContactTracker:
@@ -441,7 +510,7 @@ class ContactTracker:
         else:
             tip = pressure is not None and pressure > 0.0
         if c.finger:
-            contact = 1 + (v[el[CONTACT_ID]] if CONTACT_ID in el else 0)
+            contact = 1 + (v[el[CONTACT_ID]] if CONTACT_ID in el else c.ordinal)
             confident = CONFIDENCE not in el or bool(v[el[CONFIDENCE]])
             in_range = tip and confident
             tip = in_range
@@ -477,8 +546,8 @@ class ContactTracker:
             contact=contact,
             pressure=pressure,
             tool=tool,
-            tilt_x=v[el[X_TILT]] * c.tilt_x_deg if X_TILT in el else None,
-            tilt_y=v[el[Y_TILT]] * c.tilt_y_deg if Y_TILT in el else None,
+            tilt_x=_tilt(v, el.get(X_TILT), c.tilt_x_deg, c.tilt_x_off),
+            tilt_y=_tilt(v, el.get(Y_TILT), c.tilt_y_deg, c.tilt_y_off),
             buttons=buttons,
         )
         self.last[contact] = sample

@@ -284,7 +284,7 @@ def _contact_lines(
     else:
         add("tip = pressure is not None and pressure > 0.0")
     if c.finger:
-        add(f"contact = 1 + {v(CONTACT_ID)}" if CONTACT_ID in el else "contact = 1")
+        add(f"contact = 1 + {v(CONTACT_ID)}" if CONTACT_ID in el else f"contact = {1 + c.ordinal}")
         if CONFIDENCE in el:
             add(f"in_range = tip and {v(CONFIDENCE)} != 0")
         else:
@@ -311,8 +311,16 @@ def _contact_lines(
     add(f"        y = min(max(y, 0.0), {h})")
     bits = [f"(1 if {v(BARREL)} else 0)"] if BARREL in el else []
     bits += [f"(2 if {v(SECONDARY_BARREL)} else 0)"] if SECONDARY_BARREL in el else []
-    tx = f"{v(X_TILT)} * {const('txd', c.tilt_x_deg)}" if X_TILT in el else "None"
-    ty = f"{v(Y_TILT)} * {const('tyd', c.tilt_y_deg)}" if Y_TILT in el else "None"
+
+    def tilt(usage: int, label: str, deg: float, off: float) -> str:
+        if usage not in el:
+            return "None"
+        # the same sum as ContactTracker's; `+ 0.0` would turn -0.0 into 0.0
+        shift = f" + {const(label + 'o', off)}" if off != 0.0 else ""
+        return f"{v(usage)} * {const(label, deg)}{shift}"
+
+    tx = tilt(X_TILT, "txd", c.tilt_x_deg, c.tilt_x_off)
+    ty = tilt(Y_TILT, "tyd", c.tilt_y_deg, c.tilt_y_off)
     values = {
         "t": "t",
         "x": "x",

@@ -87,10 +87,12 @@ class ReportStream:
         if size_m is None and entry is not None and entry.size_m is not None:
             if entry.size_over_descriptor:
                 size_m, self.size_from = entry.size_m, "catalogue"
-            else:
+            elif device_kind(desc, pen_reports) == "pen":
                 # A generated (OpenTabletDriver) size only fills in for a
                 # descriptor that gives none: the descriptor is this unit's own
-                # statement, the catalogue a model's that may share its id.
+                # statement, the catalogue a model's that may share its id. It
+                # is a pen area, so a touch interface of the same id (a Wacom
+                # Intuos Pro's) does not take it, as on the evdev path.
                 try:
                     build_mappings(desc, device, None, pen_reports, aliases)
                 except DeviceError:

@@ -27,6 +27,10 @@ wider item as a plain signed value. Beyond +-15 no real device means a length
 overflowing a float."""
 
 
+MAX_TILT_DEG = 90.0
+"""A pen leans at most flat on the surface: 90 degrees from upright."""
+
+
 def _power(exponent: int) -> float | None:
     return 10.0**exponent if -MAX_EXPONENT <= exponent <= MAX_EXPONENT else None
 
@@ -76,10 +80,21 @@ def raw_extent_m(f: Field, scale: float | None = None) -> float:
 
 
 def degrees_per_logical(f: Field) -> float:
-    """Degrees per logical unit of an angle field (tilt).
+    """Degrees per logical unit of an angle field (tilt): `tilt_map(f)[0]`."""
+    return tilt_map(f)[0]
 
-    Without a rotation unit the logical value is taken as degrees, which is
-    what tablets without one send (and what the kernel passes on).
+
+def tilt_map(f: Field) -> tuple[float, float]:
+    """(degrees per logical unit, degrees at logical 0) of an angle field (tilt).
+
+    The physical range is where the degrees are: a field declared logical
+    0..18000 over physical -90..90 degrees (Elan pens in shared/data/coverage)
+    is upright at 9000, not at 0. Without a rotation unit the logical value is
+    taken as degrees, which is what tablets without one send (and what the
+    kernel passes on). So is a unit that puts an end of the physical range
+    beyond 90 degrees from upright, further than a pen can lean (a logical
+    -1..1 declared as -180..180 radians would read 10,000 degrees): it says
+    nothing usable.
     """
     system = f.unit & 0xF
     power = _power(f.unit_exponent)
@@ -92,9 +107,10 @@ def degrees_per_logical(f: Field) -> float:
         lo, hi = physical_range(f)
         per_physical = _ANGLE_BASE_DEG[system] * power
         degrees = (hi - lo) * per_physical / (f.logical_max - f.logical_min)
-        if math.isfinite(degrees) and degrees != 0:
-            return degrees
-    return 1.0
+        reach = max(abs(lo), abs(hi)) * per_physical
+        if math.isfinite(degrees) and degrees != 0 and reach <= MAX_TILT_DEG * (1 + 1e-9):
+            return degrees, lo * per_physical - f.logical_min * degrees
+    return 1.0, 0.0
 
 
 def unit_name(unit: int) -> str:
