@@ -271,6 +271,8 @@ def test_prepared_ticks_publish_the_bytes_of_ordinary_ones(tmp_path: Path, ahead
     # Ahead of the spin the loop naps between the preparation and the spin
     # (here until each event); without, it never does.
     assert (clock.naps > 50) if ahead else (clock.naps == 0)
+    assert d.preparer is not None
+    assert (d.preparer.rehearsals > 50) if ahead else (d.preparer.rehearsals == 0)
     # Samples stamped just after a deadline, queued before its tick ran, were
     # in the script (they wait for the next tick in both runs).
     assert len(clock.after) >= 3
