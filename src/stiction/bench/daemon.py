@@ -296,7 +296,7 @@ def run_daemon(
     extra: dict[str, Any] | None = None,
     slice_ms: float | None = None,
     prepare: bool = True,
-    ahead: bool = True,
+    ahead: bool = False,
     pen_ppm: float = 0.0,
 ) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
     """Run stictiond in this process; returns its stats, CPU %, grid start,
@@ -745,10 +745,10 @@ def main(argv: list[str]) -> int:
         "deadline, as before; to measure what preparing buys)",
     )
     ap.add_argument(
-        "--no-ahead",
+        "--ahead",
         action="store_true",
-        help="prepare each tick at the start of the spin, as before, instead of ahead of it "
-        "with a nap (to measure what preparing ahead buys)",
+        help="experiment: prepare each tick ahead of the spin by a learnt allowance for a "
+        "late wake-up and nap to the spin, instead of at its start (Daemon.prepare_ahead)",
     )
     ap.add_argument(
         "--pen-ppm",
@@ -812,7 +812,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "realtime": args.realtime,
         "warm": not args.no_warm,
         "prepare": not args.no_prepare,
-        "ahead": not args.no_ahead,
+        "ahead": args.ahead,
         "pen_ppm": args.pen_ppm,
         "extra": extra,
         "slice_ms": args.slice_ms,
@@ -904,7 +904,7 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "warm_passes": extra.get("warm_passes"),
         "warm_skipped": extra.get("warm_skipped"),
         "prepare": not args.no_prepare,
-        "ahead": not args.no_ahead and not args.no_prepare,
+        "ahead": args.ahead and not args.no_prepare,
         "pen_ppm": args.pen_ppm,
         "lead_late_ms": extra.get("lead_late_ms"),
         # device ticks sent as prepared / prepared but run afresh / not prepared
@@ -981,8 +981,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         stem += "-nowarm"
     if args.no_prepare:
         stem += "-noprep"
-    if args.no_ahead:
-        stem += "-noahead"
+    if args.ahead:
+        stem += "-ahead"
     if args.pen_ppm:
         stem += f"-pen{args.pen_ppm:g}ppm"
     if args.slice_ms is not None:

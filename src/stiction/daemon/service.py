@@ -122,10 +122,13 @@ class Daemon:
         self.prepare_spin = True
         """Compute each live tick during the spin and send it as computed at the
         deadline if nothing changed in between (prepare.py)."""
-        self.prepare_ahead = True
-        """Prepare well before the spin (the clock's learnt lead) and nap to it,
-        redoing the preparation when input arrives (clock.RealClock, `nap`);
-        off: prepare at the start of the spin, as before."""
+        self.prepare_ahead = False
+        """An experiment, off by default: prepare well before the spin (the
+        clock's learnt lead) and nap to it, redoing the preparation when
+        input arrives (clock.RealClock, `nap`). It made the late wake-ups
+        harmless but the ticks sent as prepared dearer, and cost more CPU;
+        the p99 of the tick's work was no better (docs/daemon.md, "Issue 15:
+        preparing ahead")."""
         self.preparer: Preparer | None = None
         """The running loop's (None before run, under the virtual clock, or
         with prepare_spin off); the stats reply reads its counts."""
