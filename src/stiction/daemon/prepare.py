@@ -16,24 +16,31 @@ While the clock then polls, `Preparer.watch` looks at the prepared
 devices' queues and prepares a device again when a sample arrived.
 
 At the deadline, `Preparer.claim` hands the loop a device's prepared tick
-if it still holds: no sample arrived since (the queue is still empty),
+if it still holds: no sample arrived since (nothing queued stamped by
+the deadline: a tick takes only what arrived by it, devices.drain_live),
 the device did not go away, and the slot's contact state, mapping and the
 pipeline are the objects it was computed from (a reopened device, a scene
 or parameter change replace them). The loop then commits it (the pending
 samples it took, the stepped copy as the device's state) and sends the
 bytes already encoded. Otherwise it is dropped and the loop runs the
-ordinary tick: a sample that arrives (between the last turn of the polling
-and the tick), even one whose mapped time is after the deadline, still
+ordinary tick: a sample that arrived by the deadline after the last turn
+of the polling, even one whose mapped time is after the deadline, still
 moves the device clock's offset, and with it the times of the samples the
-tick takes, so any arrival makes a miss.
+tick takes, so any such arrival makes a miss.
+
+`Preparer.nap` is for an experiment, off by default (service.Daemon's
+`prepare_ahead`): the clock prepares well ahead of the spin and naps to
+it, and the nap ends when a sample arrives so that `watch` redoes the
+tick at once.
 
 A device whose mapping has no affine form (a touchpad's relative mapping
 keeps a cursor) is not prepared; it, and a device going away, get the warm
 pass instead (stiction.daemon.warm). Frames are byte for byte those of a
 loop that never prepares: tests/daemon/test_daemon_prepare.py drives both
 on a scripted clock with samples arriving before and after the
-preparation, contacts starting and ending, a device leaving and coming
-back, and a parameter change after a preparation.
+preparation and stamped after the deadline, contacts starting and
+ending, a device leaving and coming back, and a parameter change after a
+preparation.
 """
 
 from __future__ import annotations
