@@ -215,3 +215,17 @@ def test_keepalive_zero_ticks_every_period_and_never_idles(endpoints: tuple[str,
     assert [f["tick"] for f in frames] == list(range(frames[0]["tick"], frames[0]["tick"] + 20))
     assert all(b["prev_tick"] == a["tick"] for a, b in itertools.pairwise(frames))
     assert d.schedule.slept == 0
+
+
+def test_a_nap_is_ended_by_a_producer_and_not_counted_as_an_idle_wake_up() -> None:
+    w = Waker()
+    w.arm(count=False)
+    threading.Thread(target=w.wake).start()
+    assert w.nap(30.0) is True
+    w.disarm()
+    assert w.wakes == 0
+    w.arm()
+    w.wake()
+    assert w.wait(0.0) is True and w.wakes == 1
+    w.arm(count=False)
+    assert w.nap(0.0) is False  # not woken: the nap ran its length

@@ -23,10 +23,11 @@ from pathlib import Path
 from typing import Any
 
 import msgpack
+import pytest
 from daemon_support import stroke
 
 from stiction import protocol
-from stiction.daemon.clock import Warm, Watch
+from stiction.daemon.clock import Nap, Warm, Watch
 from stiction.daemon.devices import DeviceConfig, DeviceSlot, Spec
 from stiction.daemon.mapping import MappingConfig
 from stiction.daemon.options import Options
@@ -39,8 +40,13 @@ START = 100.0
 """Loop time of deadline 0."""
 RATE = 100.0
 TICKS = 150
-LEAD = 0.0005
-"""How long before each deadline the script's clock runs the preparation."""
+LEADS = (0.0005, 0.002, 0.004)
+"""How long before each deadline the script's clock runs the preparation,
+one of these for each deadline (seeded): at the start of the spin, or
+ahead of it, napping to it (clock.RealClock with a nap)."""
+LEAD = LEADS[0]
+"""The shortest: events the script places "after the preparation" are
+after it whichever lead a deadline gets."""
 
 
 class HeldSource:
@@ -109,11 +115,15 @@ class ScriptedClock:
 
     virtual = False
 
-    def __init__(self, d: Daemon, events: list[Event]) -> None:
+    def __init__(self, d: Daemon, events: list[Event], seed: int = 7) -> None:
         self.d = d
         self.events = sorted(events)
         self._now = START - 1.0
         self.prepared = 0
+        self.naps = 0
+        self._leads = random.Random(seed)
+        self.after: list[float] = []
+        """Arrival stamps queued before the tick of the deadline they follow ran."""
 
     def now(self) -> float:
         return self._now
@@ -123,18 +133,27 @@ class ScriptedClock:
             self.events.pop(0).act(self.d)
 
     def sleep_until(
-        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+        self,
+        deadline: float,
+        warm: Warm | None = None,
+        watch: Watch | None = None,
+        nap: Nap | None = None,
     ) -> None:
-        self._play(deadline - LEAD)
-        self._now = max(self._now, deadline - LEAD)
+        lead = self._leads.choice(LEADS)
+        self._play(deadline - lead)
+        self._now = max(self._now, deadline - lead)
         if warm is not None:
             warm(deadline)
             self.prepared += 1
         # Between the preparation and the deadline, each event at its time,
         # and the spin's watch after it, as the polling would; an event at
-        # the deadline itself comes after the polling's last look.
+        # the deadline itself comes after the polling's last look. With a
+        # nap, the loop naps until each event (a wait that ends at once here).
         while self.events and self.events[0].at <= deadline:
             event = self.events.pop(0)
+            if nap is not None and self._now < event.at:
+                nap(0.0)
+                self.naps += 1
             self._now = max(self._now, event.at)
             event.act(self.d)
             if watch is not None and self._now < deadline:
@@ -146,11 +165,16 @@ def _slot(d: Daemon, name: str) -> DeviceSlot:
     return next(s for s in d.slots if s.config.spec == name)
 
 
-def _arrivals(device: str, samples: list[PenSample], seed: int, t0: float) -> list[Event]:
+def _arrivals(
+    device: str, samples: list[PenSample], seed: int, t0: float, after: list[float]
+) -> list[Event]:
     """Each sample queued at its device time + `t0` + a delivery delay of 0.2-3 ms,
     in order (a reader hands them over one after the other); one due in the
     last 0.1 ms before a deadline arrives on the deadline, after the spin's
-    last look at the queue."""
+    last look at the queue; one stamped in the first 0.5 ms after a deadline
+    is queued before that deadline's tick runs (a tick a little late), and
+    must wait for the next tick (devices.drain_live); their stamps are
+    added to `after`."""
     rng = random.Random(seed)
     out: list[Event] = []
     at = -1.0
@@ -159,11 +183,15 @@ def _arrivals(device: str, samples: list[PenSample], seed: int, t0: float) -> li
         k = math.ceil((at - START) * RATE)
         if START + k / RATE - at < 0.0001:
             at = START + k / RATE
+        play = at
+        if 0.0 < at - (START + (k - 1) / RATE) <= 0.0005:
+            play = START + (k - 1) / RATE
+            after.append(at)
 
         def put(d: Daemon, s: PenSample = s, at: float = at) -> None:
             _slot(d, device).queue.append((s, at))
 
-        out.append(Event(at, 0, put))
+        out.append(Event(play, 0, put))
     return out
 
 
@@ -173,12 +201,12 @@ def _two_contacts(t0: float, n: int) -> list[PenSample]:
     return sorted(both, key=lambda s: s.t)
 
 
-def _script(sources: dict[str, list[HeldSource]]) -> list[Event]:
+def _script(sources: dict[str, list[HeldSource]], after: list[float]) -> list[Event]:
     """The run's events: two devices' strokes, the pen unplugged mid-contact
     and plugged back, a parameter change between a preparation and its deadline."""
     pen = [s for s in _two_contacts(0.0, 200) if s.t < 0.69]
-    events = _arrivals("pen", pen, 1, START)
-    events += _arrivals("pad", stroke(0.1, n=180, dt=0.004), 2, START)
+    events = _arrivals("pen", pen, 1, START, after)
+    events += _arrivals("pad", stroke(0.1, n=180, dt=0.004), 2, START, after)
     unplug_at = START + 0.70 - LEAD / 3  # after the preparation for 0.70, before its deadline
 
     def unplug(d: Daemon) -> None:
@@ -198,12 +226,14 @@ def _script(sources: dict[str, list[HeldSource]]) -> list[Event]:
 
     events.append(Event(unplug_at, 1, unplug))
     events.append(Event(START + 0.85 - LEAD / 3, 1, replug))
-    events += _arrivals("pen", stroke(0.0, n=80, dt=0.004), 3, START + 0.87)
+    events += _arrivals("pen", stroke(0.0, n=80, dt=0.004), 3, START + 0.87, after)
     events.append(Event(START + 0.40 - LEAD / 3, 1, change))
     return events
 
 
-def _run(tmp_path: Path, prepare: bool) -> tuple[Recorder, Daemon, int]:
+def _run(
+    tmp_path: Path, prepare: bool, ahead: bool = True
+) -> tuple[Recorder, Daemon, ScriptedClock]:
     sources: dict[str, list[HeldSource]] = {"pen": [HeldSource("pen")], "pad": [HeldSource("pad")]}
     relative = MappingConfig(mode="relative")
     o = Options(
@@ -218,23 +248,34 @@ def _run(tmp_path: Path, prepare: bool) -> tuple[Recorder, Daemon, int]:
     recorder = Recorder()
     d = Daemon(o, opener=opener, publisher=recorder)
     d.prepare_spin = prepare
+    d.prepare_ahead = ahead
     d.open()
     d.hotplug = Watcher()
-    clock = ScriptedClock(d, _script(sources))
+    clock = ScriptedClock(d, [])
+    clock.events = sorted(_script(sources, clock.after))
     d.clock = clock
     try:
         assert d.run() == 0
     finally:
         d.close()
-    return recorder, d, clock.prepared
+    return recorder, d, clock
 
 
-def test_prepared_ticks_publish_the_bytes_of_ordinary_ones(tmp_path: Path) -> None:
+@pytest.mark.parametrize("ahead", [True, False])
+def test_prepared_ticks_publish_the_bytes_of_ordinary_ones(tmp_path: Path, ahead: bool) -> None:
     plain, d0, _ = _run(tmp_path, prepare=False)
-    prepared, d, passes = _run(tmp_path, prepare=True)
+    prepared, d, clock = _run(tmp_path, prepare=True, ahead=ahead)
     assert d0.preparer is None
     assert d.schedule.ticks == d0.schedule.ticks == TICKS
-    assert passes == TICKS
+    assert clock.prepared == TICKS
+    # Ahead of the spin the loop naps between the preparation and the spin
+    # (here until each event); without, it never does.
+    assert (clock.naps > 50) if ahead else (clock.naps == 0)
+    assert d.preparer is not None
+    assert (d.preparer.rehearsals > 50) if ahead else (d.preparer.rehearsals == 0)
+    # Samples stamped just after a deadline, queued before its tick ran, were
+    # in the script (they wait for the next tick in both runs).
+    assert len(clock.after) >= 3
     frames = [msgpack.unpackb(p) for t, p in plain.messages if t.startswith(protocol.TOPIC_FRAME)]
     pen = [f for f in frames if f["device"] == "pen"]
     # What the script was to bring about did happen: both contacts of the pen
@@ -300,3 +341,34 @@ def test_a_redo_that_fails_in_the_spin_leaves_the_tick_to_run_afresh(
     assert d.preparer is not None and d.preparer.redone == 0
     assert len(failed) > 5 and d.preparer.misses >= len(failed)
     assert got.messages == plain.messages
+
+
+def test_a_sample_stamped_after_the_deadline_waits_and_leaves_the_prepared_tick_standing(
+    tmp_path: Path, monkeypatch: Any
+) -> None:
+    """A tick takes what arrived by its deadline (devices.drain_live): a sample
+    the reader stamped after it, queued before the tick ran, is left for the
+    next tick by the ordinary tick, and does not drop the prepared one."""
+    from stiction.daemon import prepare
+    from stiction.daemon.devices import take_live
+
+    slot = DeviceSlot(config=DeviceConfig("pen"), spec=Spec("synthetic", "demo"), name="pen")
+    early, late = stroke(0.0, n=2)[:2]
+    slot.queue.extend([(early, 9.999), (late, 10.0001)])
+    samples, newest = take_live(slot, 9.99, 10.0)
+    assert len(samples) == 1 and newest == 9.999
+    assert [a for _, a in slot.queue] == [10.0001]
+
+    real = prepare.Preparer.claim
+    standing: list[bool] = []
+
+    def claim(self: Any, slot: DeviceSlot, tick: int, t: float, prev_t: float) -> Any:
+        queued = bool(slot.queue)
+        got = real(self, slot, tick, t, prev_t)
+        if queued:
+            standing.append(got is not None)
+        return got
+
+    monkeypatch.setattr(prepare.Preparer, "claim", claim)
+    _, _, clock = _run(tmp_path, prepare=True)
+    assert clock.after and any(standing)

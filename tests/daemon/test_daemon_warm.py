@@ -15,7 +15,7 @@ import pytest
 import zmq
 
 from stiction import protocol
-from stiction.daemon.clock import RealClock, VirtualClock, Warm, Watch
+from stiction.daemon.clock import Nap, RealClock, VirtualClock, Warm, Watch
 from stiction.daemon.devices import DeviceConfig
 from stiction.daemon.options import Options
 from stiction.daemon.publisher import Publisher, Recorder
@@ -32,7 +32,11 @@ class WarmingClock(VirtualClock):
         self.warmed = 0
 
     def sleep_until(
-        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+        self,
+        deadline: float,
+        warm: Warm | None = None,
+        watch: Watch | None = None,
+        nap: Nap | None = None,
     ) -> None:
         assert warm is not None, "the loop gave its clock no warm pass"
         warm(deadline)
@@ -311,3 +315,91 @@ def test_after_a_preparation_the_polling_sleeps_in_short_steps_then_spins(
     fake.slept.clear()
     clock.sleep_until(102.0)  # no preparation: a bare spin, no naps
     assert len(fake.slept) == 1
+
+
+def test_with_a_nap_the_preparation_comes_ahead_of_the_spin_and_the_nap_fills_the_gap(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Given a nap (the loop's prepared tick, Daemon.prepare_ahead), the clock
+    wakes the learnt lateness allowance before the spin and the preparation,
+    prepares, naps until the spin, and polls from there as before."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(poll=1e-6)
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    began: list[float] = []
+    naps: list[tuple[float, float]] = []
+
+    def prepare(deadline: float) -> None:
+        began.append(deadline - fake.now)
+        fake.now += 0.0002
+
+    def nap(seconds: float) -> None:
+        naps.append((101.0 - fake.now, seconds))
+        fake.now += seconds
+
+    clock.sleep_until(101.0, prepare, lambda d, now: False, nap)
+    # woken late_s (1 ms at first) + spin before the deadline, the preparation's
+    # duration not learnt yet
+    assert began[0] == pytest.approx(clock_module.LATE_INIT_S + 0.0003, abs=1e-5)
+    # one nap, from the end of the preparation to the spin
+    assert len(naps) == 1
+    left, seconds = naps[0]
+    assert left - seconds == pytest.approx(0.0003, abs=1e-5)
+    assert fake.now >= 101.0 and clock.overrun == 0.0
+    assert all(s == clock_module.YIELD_S for s in fake.slept[1:])  # the spin's short sleeps
+
+
+def test_a_nap_ended_by_input_redoes_the_tick_then_and_naps_again(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(poll=1e-6)
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+    arrived = [False]
+    redone: list[float] = []
+
+    def nap(seconds: float) -> None:
+        if not redone:  # input 0.2 ms into the first nap ends it
+            fake.now += 0.0002
+            arrived[0] = True
+        else:
+            fake.now += seconds
+
+    def watch(deadline: float, now: float) -> bool:
+        if arrived[0]:
+            arrived[0] = False
+            redone.append(deadline - now)
+            fake.now += 0.0001
+            return True
+        return False
+
+    clock.sleep_until(101.0, lambda d: None, watch, nap)
+    assert len(redone) == 1 and redone[0] > 0.0005  # long before the deadline
+    assert clock.overrun == 0.0 and clock.overran == 0
+
+
+def test_the_lead_learns_how_late_the_wake_up_comes(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The allowance settles near a high quantile of the wake-up's lateness,
+    within its bounds."""
+    import stiction.daemon.clock as clock_module
+
+    fake = FakeTime(poll=1e-6)
+    monkeypatch.setattr(clock_module, "time", fake)
+    clock = RealClock(0.0003)
+
+    def nap(seconds: float) -> None:
+        fake.now += seconds
+
+    fake.overshoot = 0.0001  # every sleep 0.1 ms late
+    for k in range(4000):
+        clock.sleep_until(101.0 + k * 0.01, lambda d: None, lambda d, now: False, nap)
+    assert clock.late_s == pytest.approx(clock_module.LATE_MIN_S)
+    fake.overshoot = 0.005  # every sleep 5 ms late: as far as the bound allows
+    for _ in range(200):
+        clock.sleep_until(fake.now + 0.01, lambda d: None, lambda d, now: False, nap)
+    assert clock.late_s == pytest.approx(clock_module.LATE_MAX_S)
+    assert clock.warm_skipped > 0  # those wake-ups came after their deadlines

@@ -58,7 +58,7 @@ from typing import Any
 
 import numpy as np
 
-from stiction.bench._support import NoBar, progress, results_dir
+from stiction.bench._support import progress, results_dir
 
 DEFAULT_SECONDS = 20.0
 
@@ -296,6 +296,8 @@ def run_daemon(
     extra: dict[str, Any] | None = None,
     slice_ms: float | None = None,
     prepare: bool = True,
+    ahead: bool = False,
+    pen_ppm: float = 0.0,
 ) -> tuple[dict[str, Any], float, float, np.ndarray, np.ndarray]:
     """Run stictiond in this process; returns its stats, CPU %, grid start,
     and the lateness of every tick it ran with that tick's grid index.
@@ -306,6 +308,9 @@ def run_daemon(
     tick late.
     `warm`: the loop's warm pass during the spin (stiction.daemon.warm).
     `prepare`: the loop's prepared tick during the spin (stiction.daemon.prepare).
+    `ahead`: prepared ahead of the spin, napping to it (Daemon.prepare_ahead).
+    `pen_ppm`: a synthetic pen's clock runs this many parts per million fast
+    (drifting_pen).
     `slice_ms`: ask the fair scheduler for slices this long for the loop
     thread (stiction.daemon.clock.request_slice; this thread runs the loop).
     `extra`, if given, receives the CPU of each of the daemon's threads and
@@ -328,9 +333,15 @@ def run_daemon(
     )
     if spin_ms is not None:
         opts.spin_ms = spin_ms
-    daemon = Daemon(opts, opener=lambda *a: _Idle()) if spec is None else Daemon(opts)
+    if spec is None:
+        daemon = Daemon(opts, opener=lambda *a: _Idle())
+    elif pen_ppm:
+        daemon = Daemon(opts, opener=drifting_pen(pen_ppm))
+    else:
+        daemon = Daemon(opts)
     daemon.warm_spin = warm
     daemon.prepare_spin = prepare
+    daemon.prepare_ahead = ahead
     daemon.open()
     # The steady state is measured, not numba compiling the scene tick on a
     # thread beside the first ticks (seconds to a minute on a fresh checkout:
@@ -345,17 +356,16 @@ def run_daemon(
     # Progress on a terminal, one step a second (runs last up to 10 minutes);
     # elsewhere the bar is a no-op and the hook stays ticks.append alone.
     bar = progress(seconds, f"stictiond {'idle ' if spec is None else ''}run", "s")
-    if isinstance(bar, NoBar):
-        daemon.on_tick = ticks.append
-    else:
-        per_second = max(1, round(rate))
+    causes = TickCauses(daemon)
+    per_second = max(1, round(rate))
 
-        def on_tick(n: int) -> None:
-            ticks.append(n)
-            if n % per_second == 0:
-                bar.update(1)
+    def on_tick(n: int) -> None:
+        ticks.append(n)
+        causes.record()
+        if n % per_second == 0:
+            bar.update(1)
 
-        daemon.on_tick = on_tick
+    daemon.on_tick = on_tick
     if slice_ms is not None:
         from stiction.daemon.clock import request_slice
 
@@ -377,8 +387,12 @@ def run_daemon(
             extra["warm_passes"] = getattr(daemon.clock, "warmed", 0)
             extra["warm_skipped"] = getattr(daemon.clock, "warm_skipped", 0)
             extra["warm_overran"] = getattr(daemon.clock, "overran", 0)
+            extra["lead_late_ms"] = getattr(daemon.clock, "late_s", 0.0) * 1e3
             preparer = daemon.preparer
             extra["prepared_again"] = preparer.redone if preparer is not None else 0
+            extra["tick_causes"] = causes.summary(
+                daemon.cost.values(), daemon.cost_cpu.values(), TICK_WORK_TARGET_S
+            )
             # waits[k + 1] spans tick k's sleep and work (read before each sleep)
             extra["run_queue_wait_s"] = np.asarray([*waits[1:], 0.0], dtype=np.float64)
         stats: dict[str, Any] = dict(daemon.stats())
@@ -393,6 +407,96 @@ def run_daemon(
         bar.close()
         daemon.close()
     return stats, cpu, start, jitter, np.asarray(ticks, dtype=np.int64)
+
+
+TICK_WORK_TARGET_S = 0.0001
+"""Issue 15's bound on the live tick's work (p99)."""
+
+CAUSES = (
+    "sent as prepared",
+    "prepared past the deadline",
+    "redone past the deadline",
+    "dropped at the deadline",
+    "not prepared",
+)
+"""What each tick was, for the prepared loop (TickCauses): its prepared tick
+sent with nothing done past the deadline; the preparation itself ran past
+it (a wake-up too late for it); redone for input in the spin and that ran
+past it; dropped at the deadline (input after the spin's last look, a
+change) and the tick run afresh; nothing prepared (woken after the
+deadline, or a device that is never prepared)."""
+
+
+class TickCauses:
+    """Records, after each tick (the daemon's on_tick hook), which of CAUSES
+    it was, from the preparer's and the clock's counters, so that the ticks
+    over the target can be counted by cause."""
+
+    def __init__(self, daemon: Any) -> None:
+        self.daemon = daemon
+        self.kinds: list[int] = []
+        self._before = (0, 0, 0)
+
+    def record(self) -> None:
+        p = self.daemon.preparer
+        if p is None:
+            self.kinds.append(-1)
+            return
+        now = (p.misses, p.unprepared, p.redone)
+        missed, none, redone = (a - b for a, b in zip(now, self._before, strict=True))
+        self._before = now
+        over = getattr(self.daemon.clock, "overrun", 0.0) > 0
+        kind = 4 if none else 3 if missed else 2 if over and redone else 1 if over else 0
+        self.kinds.append(kind)
+
+    def summary(self, wall: np.ndarray, cpu: np.ndarray, limit: float) -> dict[str, Any]:
+        """All ticks, and those whose work (wall clock, CPU time) was over
+        `limit`, counted by cause (empty without a preparer)."""
+        kinds = np.asarray(self.kinds, dtype=np.int64)
+        n = min(len(kinds), len(wall), len(cpu))
+        if n == 0 or kinds.min(initial=0) < 0:
+            return {}
+        kinds = kinds[-n:]
+
+        def count(mask: np.ndarray) -> dict[str, int]:
+            return {c: int((kinds[mask] == k).sum()) for k, c in enumerate(CAUSES)}
+
+        return {
+            "all": count(np.ones(n, dtype=bool)),
+            "over_wall": count(wall[-n:] > limit),
+            "over_cpu": count(cpu[-n:] > limit),
+            "limit_ms": limit * 1e3,
+        }
+
+
+def drifting_pen(ppm: float) -> Callable[..., Any]:
+    """An opener (Daemon's `opener`) whose synthetic pens run `ppm` parts per
+    million fast against the loop's clock; other specs open as usual.
+
+    The synthetic pen is paced on the loop's own monotonic clock, so its
+    reports keep one phase against the deadlines for a whole run, and the
+    prepared tick's hit rate is that phase's (almost every tick, or every
+    other one). A real tablet has its own crystal (tens of ppm off), and its
+    reports drift across the grid. At 1000 ppm a 200 Hz pen's reports move
+    1 ms a second against the deadlines: every phase of the 5 ms between
+    them in 5 s. Built from the same parts as stiction.drivers.fake.synthetic,
+    with the reports' time stamps scaled."""
+    from stiction.daemon.devices import open_source
+    from stiction.drivers.fake.tablet import SyntheticTablet
+    from stiction.drivers.hid.report_source import ReportSource
+    from stiction.drivers.hid.stream import ReportStream
+
+    scale = 1.0 / (1.0 + ppm * 1e-6)
+
+    def opener(spec: Any, cfg: Any, realtime: bool, loop: bool) -> Any:
+        if spec.kind != "synthetic" or spec.target == "stdin":
+            return open_source(spec, cfg, realtime, loop)
+        tablet = SyntheticTablet()
+        stream = ReportStream(tablet.descriptor, f"synthetic {spec.target}")
+        reports = ((t * scale, data) for t, data in tablet.reports(spec.target, loop))
+        return ReportSource(f"synthetic-{spec.target}", stream, reports, realtime)
+
+    return opener
 
 
 def _watch_run_queue(daemon: Any) -> tuple[list[float], Callable[[], None]]:
@@ -640,6 +744,21 @@ def main(argv: list[str]) -> int:
         help="the daemon's loop without its prepared tick (each tick computed after its "
         "deadline, as before; to measure what preparing buys)",
     )
+    ap.add_argument(
+        "--ahead",
+        action="store_true",
+        help="experiment: prepare each tick ahead of the spin by a learnt allowance for a "
+        "late wake-up and nap to the spin, instead of at its start (Daemon.prepare_ahead)",
+    )
+    ap.add_argument(
+        "--pen-ppm",
+        type=float,
+        default=0.0,
+        metavar="PPM",
+        help="the synthetic pen's clock runs PPM parts per million fast, so that its reports "
+        "drift across the deadlines as a real tablet's do (default 0: locked to the loop's "
+        "clock, as in the committed runs)",
+    )
     ap.add_argument("--json", action="store_true")
     args = ap.parse_args(argv)
     if args.seconds <= 0.5:
@@ -693,6 +812,8 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "realtime": args.realtime,
         "warm": not args.no_warm,
         "prepare": not args.no_prepare,
+        "ahead": args.ahead,
+        "pen_ppm": args.pen_ppm,
         "extra": extra,
         "slice_ms": args.slice_ms,
     }
@@ -783,11 +904,15 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "warm_passes": extra.get("warm_passes"),
         "warm_skipped": extra.get("warm_skipped"),
         "prepare": not args.no_prepare,
+        "ahead": args.ahead and not args.no_prepare,
+        "pen_ppm": args.pen_ppm,
+        "lead_late_ms": extra.get("lead_late_ms"),
         # device ticks sent as prepared / prepared but run afresh / not prepared
         "prepared_hits": stats.get("prepared_hits", 0),
         "prepared_misses": stats.get("prepared_misses", 0),
         "unprepared": stats.get("unprepared", 0),
         "prepared_again": extra.get("prepared_again"),
+        "tick_causes": extra.get("tick_causes") or {},
         "prepare_overran": extra.get("warm_overran"),
         "cpu_by_thread_pct": extra.get("cpu_by_thread_pct", {}),
     }
@@ -856,6 +981,10 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         stem += "-nowarm"
     if args.no_prepare:
         stem += "-noprep"
+    if args.ahead:
+        stem += "-ahead"
+    if args.pen_ppm:
+        stem += f"-pen{args.pen_ppm:g}ppm"
     if args.slice_ms is not None:
         stem += f"-slice{args.slice_ms:g}"
     (results_dir() / f"{stem}.txt").write_text(table + "\n")
@@ -928,6 +1057,7 @@ def _table(res: dict[str, Any]) -> str:
         f"{res['cpus']} CPUs (shared machine); CPU time stolen by the hypervisor during the "
         f"daemon run: {res['steal_pct']:.2f}%; the daemon's spin_ms: {res['spin_ms']:g}, "
         f"SCHED_FIFO priority: {d.get('realtime', 0) or 'none (ordinary)'}"
+        + (f", synthetic pen's clock {d['pen_ppm']:+g} ppm" if d.get("pen_ppm") else "")
         + (f", loop thread's slice request: {d['slice_ms']:g} ms" if d.get("slice_ms") else ""),
         *first,
         f"{'':<34}{'bare loop':>12}{'bare+pyzmq':>12}{'stictiond':>12}",
@@ -978,10 +1108,14 @@ def _table(res: dict[str, Any]) -> str:
     warm = d.get("warm_pass_ms")
     skipped = d.get("warm_skipped")
     what = "preparation" if d.get("prepare") else "warm pass"
+    where = "ahead of the spin" if d.get("ahead") else "in the spin"
+    notes = [f"skipped before {skipped} late wake-ups"] if skipped else []
+    if d.get("ahead") and d.get("lead_late_ms") is not None:
+        notes.insert(0, f"woken {d['lead_late_ms']:.2f} ms earlier than it needs, learnt")
     lines.append(
-        f"{what + ' in the spin (ms)':<34}{'':>24}"
+        f"{what + ' ' + where + ' (ms)':<34}{'':>24}"
         f"{(_f(warm, '.3f') if d.get('warm', True) or d.get('prepare') else 'off'):>12}"
-        + (f"   (skipped before {skipped} late wake-ups)" if skipped else "")
+        + (f"   ({'; '.join(notes)})" if notes else "")
     )
     if d.get("prepare", False):
         hits, misses, none = d["prepared_hits"], d["prepared_misses"], d["unprepared"]
@@ -994,6 +1128,19 @@ def _table(res: dict[str, Any]) -> str:
         )
     else:
         lines.append(f"{'prepared ticks':<34}{'':>24}{'off':>12}")
+    causes = d.get("tick_causes") or {}
+    if causes:
+        for key, what in (("all", "all ticks"), ("over_cpu", "CPU"), ("over_wall", "wall")):
+            got = causes[key]
+            head = (
+                f"  ticks by cause, {what}"
+                if key == "all"
+                else f"  ... over {causes['limit_ms']:g} ms of {what}"
+            )
+            lines.append(
+                f"{head:<34}{sum(got.values()):>6}: "
+                + ", ".join(f"{c} {k}" for c, k in got.items() if k)
+            )
     threads = d.get("cpu_by_thread_pct") or {}
     if threads:
         parts = ", ".join(f"{name} {pct:.2f}" for name, pct in threads.items() if pct >= 0.005)

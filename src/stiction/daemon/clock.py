@@ -38,6 +38,10 @@ Watch = Callable[[float, float], bool]
 deadline and the time now (the prepared tick redone when input arrives);
 True when it did some of the tick's work."""
 
+Nap = Callable[[float], None]
+"""Sleep up to the given seconds, less if input arrives for a prepared
+device; what the loop does between an early preparation and the spin."""
+
 WARM_MARGIN = 0.2
 """The warm pass runs only if its expected duration plus this share of the
 spin is left when the sleep ends: a later wake-up goes straight to polling.
@@ -61,12 +65,35 @@ samples due in that time stamped after the deadline (a period more of
 latency for them; docs/daemon.md, "Issue 15: the prepared tick"). The
 sleeps hand it the interpreter; the last 0.15 ms stays a spin, which a
 20 us sleep's overshoot on the development VM stays well inside."""
+LATE_INIT_S = 0.001
+LATE_MIN_S = 0.0002
+LATE_MAX_S = 0.003
+"""With a nap (the loop's prepared tick), the clock wakes for the
+preparation this much earlier than the spin and the preparation's learnt
+duration need: a high quantile of how late that wake-up comes, learnt
+online (LATE_QUANTILE), kept within these bounds. A wake-up later than the
+whole lead leaves the preparation running past the deadline, or no
+preparation at all, and that tick's work is the slow one (docs/daemon.md,
+"Issue 15: the prepared tick"). A longer lead costs no tick work, only the
+preparations redone for input arriving within it."""
+LATE_QUANTILE = 0.995
+LATE_STEP_S = 50e-6
+"""The quantile's step: a wake-up later than the estimate raises it by
+about this much, one on time lowers it by LATE_STEP_S * (1 - LATE_QUANTILE),
+so that it settles where that share of wake-ups is later (stochastic
+gradient descent on the quantile's pinball loss)."""
+NAP_MIN_S = 50e-6
+"""Naps shorter than this are not worth a wait: the polling's short sleeps take over."""
 
 
 class Clock(Protocol):
     def now(self) -> float: ...
     def sleep_until(
-        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+        self,
+        deadline: float,
+        warm: Warm | None = None,
+        watch: Watch | None = None,
+        nap: Nap | None = None,
     ) -> None: ...
 
 
@@ -100,6 +127,15 @@ class RealClock:
     the deadline is recorded (`overrun`) for the loop to count as the
     tick's work (for the watch's, the wall-clock time stands for its CPU
     time too: it runs without sleeping).
+
+    `nap`, if given with both, moves the preparation ahead of the spin: the
+    clock wakes `late_s` earlier than the spin and the preparation's learnt
+    duration need (`late_s` a high quantile of that wake-up's lateness,
+    learnt online), prepares, then naps until the spin; `nap` ends early
+    when input arrives, and `watch` redoes the tick then, long before the
+    deadline. A wake-up late by up to `late_s` still finds the tick
+    prepared at the deadline; only input arriving in the last moments
+    before it costs work after it.
     """
 
     virtual = False
@@ -119,14 +155,23 @@ class RealClock:
         """The CPU time of that part (the pass's CPU time in proportion)."""
         self.overran = 0
         """Preparations that ran past their deadline."""
+        self.late_s = LATE_INIT_S
+        """The learnt high quantile of the early wake-up's lateness (s), with a nap."""
 
     def now(self) -> float:
         return time.monotonic()
 
     def sleep_until(
-        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+        self,
+        deadline: float,
+        warm: Warm | None = None,
+        watch: Watch | None = None,
+        nap: Nap | None = None,
     ) -> None:
         spin = self.spin
+        if nap is not None and warm is not None and watch is not None and spin:
+            self._prepare_ahead(deadline, warm, watch, nap)
+            return
         monotonic = time.monotonic
         lead = spin + self.warm_s if warm is not None and spin else spin
         remaining = deadline - lead - monotonic()
@@ -162,17 +207,60 @@ class RealClock:
             while monotonic() < deadline:
                 pass
 
-    def _watch_until(self, deadline: float, watch: Watch) -> None:
+    def _prepare_ahead(self, deadline: float, warm: Warm, watch: Watch, nap: Nap) -> None:
+        """Wake for the preparation well ahead of the spin, prepare, nap to the
+        spin (watching for input), then poll to the deadline as after any
+        preparation."""
+        monotonic = time.monotonic
+        self.overrun = self.overrun_cpu = 0.0
+        target = deadline - (self.spin + self.warm_s + self.late_s)
+        remaining = target - monotonic()
+        if remaining > 0:
+            time.sleep(remaining)
+        start = monotonic()
+        if remaining > 0:
+            self._learn_lateness(start - target)
+        if start >= deadline:
+            self.warm_skipped += 1  # too late for anything but the ordinary tick
+            return
+        cpu = time.thread_time()
+        warm(deadline)
+        end = monotonic()
+        took = end - start
+        self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
+        self.warmed += 1
+        if end > deadline:
+            self.overrun = end - deadline
+            self.overran += 1
+            self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
+            return
+        self._watch_until(deadline, watch, nap)
+
+    def _learn_lateness(self, late: float) -> None:
+        """One step of the quantile estimate `late_s` (LATE_QUANTILE)."""
+        if late > self.late_s:
+            step = LATE_STEP_S * LATE_QUANTILE
+        else:
+            step = -LATE_STEP_S * (1.0 - LATE_QUANTILE)
+        self.late_s = min(max(self.late_s + step, LATE_MIN_S), LATE_MAX_S)
+
+    def _watch_until(self, deadline: float, watch: Watch, nap: Nap | None = None) -> None:
         """Poll to the deadline after a preparation, running `watch` on every
-        turn and napping YIELD_S at a time while more than YIELD_UNTIL_S is
-        left; the watch's work past the deadline is recorded as `overrun`."""
+        turn; until the spin `nap` (if given), then sleeping YIELD_S at a
+        time while more than YIELD_UNTIL_S is left; the watch's work past
+        the deadline is recorded as `overrun`."""
         monotonic = time.monotonic
         sleep = time.sleep
+        spin = self.spin
         past = 0.0
         while (now := monotonic()) < deadline:
             if watch(deadline, now):
                 past = monotonic() - deadline
-            elif deadline - now > YIELD_UNTIL_S:
+                continue
+            left = deadline - now
+            if nap is not None and left - spin > NAP_MIN_S:
+                nap(left - spin)
+            elif left > YIELD_UNTIL_S:
                 sleep(YIELD_S)  # the readers take the interpreter meanwhile
         if past > 0:
             self.overrun = self.overrun_cpu = past
@@ -207,7 +295,11 @@ class VirtualClock:
         return self._now
 
     def sleep_until(
-        self, deadline: float, warm: Warm | None = None, watch: Watch | None = None
+        self,
+        deadline: float,
+        warm: Warm | None = None,
+        watch: Watch | None = None,
+        nap: Nap | None = None,
     ) -> None:
         """Jump to `deadline`; a virtual tick is not slowed by cold caches: no warm pass."""
         self._now = max(self._now, deadline)

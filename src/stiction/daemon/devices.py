@@ -416,12 +416,13 @@ def start_reader(
 def take_live(slot: DeviceSlot, prev_t: float, t: float) -> tuple[list[PenSample], float | None]:
     """Everything that arrived for `slot`, mapped onto the loop clock, up to tick `t`.
 
-    Samples whose mapped time lies after `t` wait for the next tick; a sample
+    Only samples that arrived by `t` are looked at (drain_live). Samples
+    whose mapped time lies after `t` wait for the next tick; a sample
     mapped at or before the previous tick (clock jitter) is placed just after
     it so that none is lost. Returns the samples and the arrival time of the
     newest one handed over (for the latency statistic).
     """
-    drain_live(slot)
+    drain_live(slot, t)
     taken = select_live(slot, prev_t, t)
     commit_live(slot, taken)
     return taken.samples, taken.newest
@@ -438,16 +439,22 @@ class Taken:
     """The slot's `last_t` once they are taken."""
 
 
-def drain_live(slot: DeviceSlot) -> None:
-    """Move what the reader queued into the slot's pending samples, learning
-    the device clock from each arrival.
+def drain_live(slot: DeviceSlot, until: float = math.inf) -> None:
+    """Move what the reader queued by loop time `until` (its arrival stamp)
+    into the slot's pending samples, learning the device clock from each
+    arrival.
 
     Done at a tick, or earlier (the loop's prepared tick, stiction.daemon.prepare):
     the clock sees the same arrivals in the same order either way, so when
-    the draining happens changes nothing that is taken later."""
+    the draining happens changes nothing that is taken later. The tick at
+    deadline t drains only what arrived by t: a sample stamped after it,
+    queued before a late tick ran, waits for the next tick. So a tick's
+    frame depends on what arrived by its deadline, not on how late the loop
+    ran it, and an arrival after the deadline cannot spoil a tick prepared
+    for it."""
     q = slot.queue
     pending = slot.pending
-    while q:
+    while q and q[0][1] <= until:
         s, arrival = q.popleft()
         if not valid(s):
             slot.rejected += 1

@@ -16,24 +16,31 @@ While the clock then polls, `Preparer.watch` looks at the prepared
 devices' queues and prepares a device again when a sample arrived.
 
 At the deadline, `Preparer.claim` hands the loop a device's prepared tick
-if it still holds: no sample arrived since (the queue is still empty),
+if it still holds: no sample arrived since (nothing queued stamped by
+the deadline: a tick takes only what arrived by it, devices.drain_live),
 the device did not go away, and the slot's contact state, mapping and the
 pipeline are the objects it was computed from (a reopened device, a scene
 or parameter change replace them). The loop then commits it (the pending
 samples it took, the stepped copy as the device's state) and sends the
 bytes already encoded. Otherwise it is dropped and the loop runs the
-ordinary tick: a sample that arrives (between the last turn of the polling
-and the tick), even one whose mapped time is after the deadline, still
+ordinary tick: a sample that arrived by the deadline after the last turn
+of the polling, even one whose mapped time is after the deadline, still
 moves the device clock's offset, and with it the times of the samples the
-tick takes, so any arrival makes a miss.
+tick takes, so any such arrival makes a miss.
+
+`Preparer.nap` is for an experiment, off by default (service.Daemon's
+`prepare_ahead`): the clock prepares well ahead of the spin and naps to
+it, and the nap ends when a sample arrives so that `watch` redoes the
+tick at once.
 
 A device whose mapping has no affine form (a touchpad's relative mapping
 keeps a cursor) is not prepared; it, and a device going away, get the warm
 pass instead (stiction.daemon.warm). Frames are byte for byte those of a
 loop that never prepares: tests/daemon/test_daemon_prepare.py drives both
 on a scripted clock with samples arriving before and after the
-preparation, contacts starting and ending, a device leaving and coming
-back, and a parameter change after a preparation.
+preparation and stamped after the deadline, contacts starting and
+ending, a device leaving and coming back, and a parameter change after a
+preparation.
 """
 
 from __future__ import annotations
@@ -45,8 +52,9 @@ from typing import Any, Protocol
 
 from stiction import protocol
 from stiction.daemon import warm
-from stiction.daemon.clock import Schedule
+from stiction.daemon.clock import Clock, Schedule
 from stiction.daemon.devices import DeviceSlot, Taken, commit_live, drain_live, select_live
+from stiction.daemon.wake import Waker
 from stiction.daemon.warm import Warmer
 from stiction.scene.pipeline import DeviceRun, Pipeline
 
@@ -91,6 +99,10 @@ class Loop(warm.Loop, Protocol):
     def last_tick_t(self) -> float: ...
     @property
     def last_frames(self) -> dict[str, protocol.FrameWire]: ...
+    @property
+    def waker(self) -> Waker: ...
+    @property
+    def clock(self) -> Clock: ...
 
 
 class Preparer:
@@ -114,6 +126,10 @@ class Preparer:
         """Preparations redone in the spin because input arrived after them."""
         self.watched: list[DeviceSlot] = []
         """The slots prepared for the coming deadline."""
+        self.rehearsal = True
+        """Rehearse the deadline's work at the end of a full nap (`nap`)."""
+        self.rehearsals = 0
+        """Prepared device ticks rehearsed (a statistic for tests and benches)."""
 
     def prepare(self, t: float) -> None:
         """Prepare every device's tick for the deadline `t`; never raises.
@@ -159,7 +175,7 @@ class Preparer:
         if fork is None:
             return False
         prev_t = d.last_tick_t
-        drain_live(slot)
+        drain_live(slot, t)
         taken = select_live(slot, prev_t, t)
         try:
             contacts = pipeline.step(fork, t, prev_t, taken.samples)
@@ -196,10 +212,49 @@ class Preparer:
         the same work after the deadline, and the clock counts the redo's
         part past the deadline as the tick's work."""
         for slot in self.watched:
-            if slot.queue:
+            if _arrived(slot, deadline):
                 self._redo(slot, deadline)
                 return True
         return False
+
+    def nap(self, seconds: float) -> None:
+        """Sleep up to `seconds`, ended early by a sample for any device (its
+        reader wakes the daemon's waker); the clock calls this between an
+        early preparation and the spin (clock.Nap), then `watch` redoes the
+        device at once, with the deadline still well ahead.
+
+        The waker is the idle loop's (stiction.daemon.wake): armed before
+        the queues are looked at, so an arrival in between is not slept
+        through; a control request or a hot-plug also ends the nap, and the
+        clock naps again. These wake-ups are not counted as idle ones.
+
+        A nap that runs its length ends with a rehearsal of the deadline's
+        work (`rehearse`): the nap left the caches cold again."""
+        waker = self.daemon.waker
+        waker.arm(count=False)
+        try:
+            for slot in self.watched:
+                if slot.queue:
+                    return
+            woken = waker.nap(seconds)
+        finally:
+            waker.disarm()
+        if not woken and self.rehearsal:
+            self.rehearse()
+
+    def rehearse(self) -> None:
+        """Run what the deadline will run for each prepared device, without
+        its effects: the claim's checks, and the send of the encoded frame
+        through the socket with no peer (the publisher's warm_payload)."""
+        send = getattr(self.daemon.publisher, "warm_payload", None)
+        now = self.daemon.clock.now()
+        for slot in self.watched:
+            p = self.prepared.get(id(slot))
+            if p is None or now >= p.t or not self._holds(slot, p, p.tick, p.t, p.prev_t):
+                continue  # (a nap that overslept the deadline: the real thing is due)
+            if send is not None and p.payload is not None:
+                send(p.topic, p.payload)
+            self.rehearsals += 1
 
     def _redo(self, slot: DeviceSlot, t: float) -> None:
         self.watched.remove(slot)
@@ -228,10 +283,16 @@ class Preparer:
             self.unprepared += 1
             return None
         p = self.prepared.pop(key)
+        if p is None or not self._holds(slot, p, tick, t, prev_t):
+            self.misses += 1
+            return None
+        self.hits += 1
+        return p
+
+    def _holds(self, slot: DeviceSlot, p: Prepared, tick: int, t: float, prev_t: float) -> bool:
         run = slot.run
-        if (
-            p is None
-            or slot.queue
+        return not (
+            _arrived(slot, t)
             or slot.went_away
             or p.run is not run
             or p.mapping is not run.mapping
@@ -240,8 +301,11 @@ class Preparer:
             or p.t != t
             or p.prev_t != prev_t
             or p.sent_tick != slot.sent_tick
-        ):
-            self.misses += 1
-            return None
-        self.hits += 1
-        return p
+        )
+
+
+def _arrived(slot: DeviceSlot, t: float) -> bool:
+    """A sample is queued that the tick at `t` would take in (drain_live:
+    one that arrived by `t`; the reader's queue is in arrival order)."""
+    q = slot.queue
+    return bool(q) and q[0][1] <= t

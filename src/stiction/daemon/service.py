@@ -122,6 +122,13 @@ class Daemon:
         self.prepare_spin = True
         """Compute each live tick during the spin and send it as computed at the
         deadline if nothing changed in between (prepare.py)."""
+        self.prepare_ahead = False
+        """An experiment, off by default: prepare well before the spin (the
+        clock's learnt lead) and nap to it, redoing the preparation when
+        input arrives (clock.RealClock, `nap`). It made the late wake-ups
+        harmless but the ticks sent as prepared dearer, and cost more CPU;
+        the p99 of the tick's work was no better (docs/daemon.md, "Issue 15:
+        preparing ahead")."""
         self.preparer: Preparer | None = None
         """The running loop's (None before run, under the virtual clock, or
         with prepare_spin off); the stats reply reads its counts."""
@@ -299,6 +306,7 @@ class Daemon:
             else None
         )
         watch = self.preparer.watch if self.preparer is not None else None
+        nap = self.preparer.nap if self.preparer is not None and self.prepare_ahead else None
         while not self._stop.is_set():
             if limit is not None and self.schedule.index >= limit:
                 break
@@ -308,7 +316,7 @@ class Daemon:
             if self._may_idle() and self._idle(limit):
                 continue
             deadline = self.schedule.deadline
-            self.clock.sleep_until(deadline, spin, watch)
+            self.clock.sleep_until(deadline, spin, watch, nap)
             woke = self.clock.now()
             cpu = time.thread_time()
             lateness = self.schedule.begin(woke)

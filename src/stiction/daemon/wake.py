@@ -25,10 +25,16 @@ class Waker:
         self.armed = False
         self.wakes = 0
         """Times a producer woke the idle loop (a statistic)."""
+        self._counting = True
 
-    def arm(self) -> None:
-        """About to look for work; wake-ups from now on are kept."""
+    def arm(self, count: bool = True) -> None:
+        """About to look for work; wake-ups from now on are kept.
+
+        `count=False`: a wait that is not idling (the nap between the tick's
+        preparation and its deadline, stiction.daemon.prepare): its wake-ups
+        are not counted as ends of an idle wait."""
         self._event.clear()
+        self._counting = count
         self.armed = True
 
     def disarm(self) -> None:
@@ -37,8 +43,14 @@ class Waker:
     def wake(self) -> None:
         """Work is visible: end an idle wait (cheap no-op when not armed)."""
         if self.armed:
-            self.wakes += 1
+            if self._counting:
+                self.wakes += 1
             self._event.set()
+
+    def nap(self, timeout: float) -> bool:
+        """`wait` for a bounded nap that is not idling (armed with count=False):
+        the loop's nap between a prepared tick and its deadline."""
+        return self._event.wait(max(0.0, timeout))
 
     def wait(self, timeout: float) -> bool:
         """Sleep until woken or `timeout` seconds pass (inf: until woken); True if woken."""
