@@ -32,7 +32,7 @@ from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
 from stiction.drivers.evdev import live_code, live_mt_code, sizes
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.drivers.evdev.device import DeviceGone, live_reader_for
+from stiction.drivers.evdev.device import DeviceGone, live_reader_for, new_assembler
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.recording import load
 from stiction.drivers.evdev.source import frame_samples
@@ -69,8 +69,10 @@ def _reference(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[
 
 
 def _live(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[object]:
-    """The live reader over the same reads, the device going away after the last."""
-    asm = FrameAssembler(desc)
+    """The live reader over the same reads, the device going away after the last,
+    on an assembler copied as a device's is when it is opened (new_assembler)."""
+    new_assembler(desc)  # the first is made by __init__, the next ones are copies
+    asm = new_assembler(desc)
     if live:
         asm.query_state = lambda: STATE
     reader = live_reader_for(asm, SurfaceUnits(desc))

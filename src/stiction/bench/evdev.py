@@ -132,7 +132,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     import evdev
 
     from stiction.drivers.evdev import sizes
-    from stiction.drivers.evdev.device import live_reader_for
+    from stiction.drivers.evdev.device import live_reader_for, new_assembler
     from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
     from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.evdev.recording import load
@@ -177,14 +177,14 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     def ours_reads() -> int:
         # DeviceSource.samples() itself, its reads one frame each: the reader it runs
         n = 0
-        for _ in live_reader_for(FrameAssembler(desc), units).samples(reads):
+        for _ in live_reader_for(new_assembler(desc), units).samples(reads):
             n += 1
         return n
 
     def reads_setup() -> int:
         # the same set-up with no read: what a device pays once, when opened
         n = 0
-        for _ in live_reader_for(FrameAssembler(desc), units).samples([]):
+        for _ in live_reader_for(new_assembler(desc), units).samples([]):
             n += 1
         return n
 
