@@ -106,9 +106,13 @@ _MADE_AFRESH = frozenset(
     }
 )
 _IMMUTABLE = (int, float, str, type(None), frozenset, Tool, DeviceDescription)
+SlotState = tuple[int, int, int, int | None, int, int]
 #: per description (by identity, as live_code._BY_IDENTITY): (description, the
-#: template's attributes) for a description whose assembler can be copied, else None
-_TEMPLATES: dict[int, tuple[DeviceDescription, dict[str, object] | None]] = {}
+#: template's attributes, its slots' and spare slot's states) for a description
+#: whose assembler can be copied, else (description, None, (), None)
+_TEMPLATES: dict[
+    int, tuple[DeviceDescription, dict[str, object] | None, tuple[SlotState, ...], SlotState | None]
+] = {}
 
 
 def _copyable(attrs: dict[str, object]) -> bool:
@@ -132,9 +136,9 @@ def _copyable(attrs: dict[str, object]) -> bool:
     )
 
 
-def _slot_copy(slot: _Slot) -> _Slot:
+def _slot(state: SlotState) -> _Slot:
     made = object.__new__(_Slot)
-    made.restore(slot.state())
+    made.restore(state)
     return made
 
 
@@ -158,16 +162,24 @@ def new_assembler(desc: DeviceDescription) -> FrameAssembler:
         attrs = dict(vars(made))
         if len(_TEMPLATES) >= 64:  # a bound for a process that opens many devices
             _TEMPLATES.clear()
-        # a copy of the pristine attributes: `made` itself is handed out and changes
-        pristine = _copy(attrs).__dict__ if _copyable(attrs) else None
-        _TEMPLATES[id(desc)] = (desc, pristine)
+        if _copyable(attrs):
+            # the pristine state, kept apart: `made` itself is handed out and changes
+            states = tuple(s.state() for s in attrs["_slots"])  # type: ignore[attr-defined]
+            spare = attrs["_spare_slot"].state()  # type: ignore[attr-defined]
+            pristine = vars(_copy(attrs, states, spare))
+            _TEMPLATES[id(desc)] = (desc, pristine, states, spare)
+        else:
+            _TEMPLATES[id(desc)] = (desc, None, (), None)
         return made
-    pristine_attrs = known[1]
-    return FrameAssembler(desc) if pristine_attrs is None else _copy(pristine_attrs)
+    _, pristine_attrs, states, spare = known
+    if pristine_attrs is None or spare is None:
+        return FrameAssembler(desc)
+    return _copy(pristine_attrs, states, spare)
 
 
-def _copy(attrs: dict[str, Any]) -> FrameAssembler:
-    """An assembler with `attrs`, the mutable ones made afresh (_MADE_AFRESH)."""
+def _copy(attrs: dict[str, Any], states: tuple[SlotState, ...], spare: SlotState) -> FrameAssembler:
+    """An assembler with `attrs`, the mutable ones made afresh (_MADE_AFRESH), its
+    slots in `states`."""
     asm: Any = object.__new__(FrameAssembler)
     asm.__dict__.update(attrs)
     asm._counts = Counter()
@@ -177,8 +189,8 @@ def _copy(attrs: dict[str, Any]) -> FrameAssembler:
     asm._dirty = set()
     asm._abs = attrs["_abs"].copy()
     asm._ranges = attrs["_ranges"].copy()
-    asm._slots = [_slot_copy(s) for s in attrs["_slots"]]
-    asm._spare_slot = _slot_copy(attrs["_spare_slot"])
+    asm._slots = [_slot(s) for s in states]
+    asm._spare_slot = _slot(spare)
     # feed_many as __init__ binds it, to this instance
     if asm.multitouch:
         asm.feed_many = asm._feed_mt
