@@ -25,7 +25,8 @@ evdev's C reader does the same unpacking):
   loaded from numba's cache) by the check run before the timing;
 - per read (also judged against issue 14's target): the live device's
   path, the generator `DeviceSource.samples()` returns -- the reader
-  drivers/evdev/live_code.py writes for the device -- over the bytes cut
+  drivers/evdev/live_code.py writes for the device, on an assembler from
+  `device.new_assembler` as DeviceSource makes it -- over the bytes cut
   into one read() per frame, as a device at its report rate delivers them:
   too few events for the compiled loop to pay. A pen's reads of whole
   frames go straight to PenSamples; a touchpad's, and anything unusual (keys,
