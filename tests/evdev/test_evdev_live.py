@@ -17,11 +17,13 @@ that the comparison notices.
 
 from __future__ import annotations
 
+import dataclasses
 import itertools
 import random
 import re
 from collections.abc import Callable, Iterator
 from pathlib import Path
+from typing import Any
 
 import pytest
 from evdev import ecodes as e
@@ -32,7 +34,7 @@ from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
 from stiction.drivers.evdev import live_code, live_mt_code, sizes
 from stiction.drivers.evdev.description import DeviceDescription
-from stiction.drivers.evdev.device import DeviceGone, live_reader_for
+from stiction.drivers.evdev.device import DeviceGone, live_reader_for, new_assembler
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.recording import load
 from stiction.drivers.evdev.source import frame_samples
@@ -69,8 +71,10 @@ def _reference(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[
 
 
 def _live(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[object]:
-    """The live reader over the same reads, the device going away after the last."""
-    asm = FrameAssembler(desc)
+    """The live reader over the same reads, the device going away after the last,
+    on an assembler copied as a device's is when it is opened (new_assembler)."""
+    new_assembler(desc)  # the first is made by __init__, the next ones are copies
+    asm = new_assembler(desc)
     if live:
         asm.query_state = lambda: STATE
     reader = live_reader_for(asm, SurfaceUnits(desc))
@@ -296,6 +300,8 @@ BREAKS: dict[str, Callable[[str], str]] = {
     "ended-in-range": lambda text: text.replace("s.in_range = False", "s.in_range = True"),
     # a pen's key change not undone before the assembler takes the read
     "keys-not-restored": lambda text: text.replace("keys.update(ksnap)", "pass"),
+    # a one-frame read's samples a nanosecond late (the time is given after the loop)
+    "time-wrong": lambda text: text.replace("first.t = t\n", "first.t = t + 1e-9\n"),
     # a read ending mid-frame is not handed over
     "partial-frame-dropped": lambda text: text.replace(
         "if ev_type == 0:  # the read ends", "if True:  # the read ends"
@@ -330,3 +336,24 @@ def test_the_comparison_catches_a_broken_live_reader(
         same_both_ways(desc, events, _frame_cuts(events))
         same_both_ways(DESCS["touchpad"], *_two_fingers())
         same_both_ways(DESCS["pen"], *_pen_story())
+
+
+def test_the_comparison_catches_a_read_of_several_frames_timed_wrong(
+    evdev_data: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A read of several frames gives each sample its own frame's time (`stamped`):
+    every sample at the read's first frame's time must disagree with the assembler."""
+    desc, events = _desc(evdev_data, "wacom-intuos5-touch-m-finger.desc")
+    cuts = list(range(0, len(events), 20))  # reads of several frames
+    same_both_ways(desc, events, cuts)
+    real = live_mt_code.stamped
+
+    def first_time_only(data: bytes, first: Any, rest: list[Any] | None) -> list[Any]:
+        out = real(data, first, rest)
+        return [dataclasses.replace(x, t=out[0].t) for x in out]
+
+    monkeypatch.setattr(live_mt_code, "stamped", first_time_only)
+    monkeypatch.setattr(live_code, "_FACTORIES", {})
+    monkeypatch.setattr(live_code, "_BY_IDENTITY", {})
+    with pytest.raises(AssertionError):
+        same_both_ways(desc, events, cuts)

@@ -25,7 +25,8 @@ evdev's C reader does the same unpacking):
   loaded from numba's cache) by the check run before the timing;
 - per read (also judged against issue 14's target): the live device's
   path, the generator `DeviceSource.samples()` returns -- the reader
-  drivers/evdev/live_code.py writes for the device -- over the bytes cut
+  drivers/evdev/live_code.py writes for the device, on an assembler from
+  `device.new_assembler` as DeviceSource makes it -- over the bytes cut
   into one read() per frame, as a device at its report rate delivers them:
   too few events for the compiled loop to pay. A pen's reads of whole
   frames go straight to PenSamples; a touchpad's, and anything unusual (keys,
@@ -132,7 +133,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     import evdev
 
     from stiction.drivers.evdev import sizes
-    from stiction.drivers.evdev.device import live_reader_for
+    from stiction.drivers.evdev.device import live_reader_for, new_assembler
     from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
     from stiction.drivers.evdev.playback import ReplaySource
     from stiction.drivers.evdev.recording import load
@@ -177,14 +178,14 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     def ours_reads() -> int:
         # DeviceSource.samples() itself, its reads one frame each: the reader it runs
         n = 0
-        for _ in live_reader_for(FrameAssembler(desc), units).samples(reads):
+        for _ in live_reader_for(new_assembler(desc), units).samples(reads):
             n += 1
         return n
 
     def reads_setup() -> int:
         # the same set-up with no read: what a device pays once, when opened
         n = 0
-        for _ in live_reader_for(FrameAssembler(desc), units).samples([]):
+        for _ in live_reader_for(new_assembler(desc), units).samples([]):
             n += 1
         return n
 

@@ -32,18 +32,18 @@ import time
 import weakref
 from collections import Counter
 from collections.abc import Iterator
-from typing import Any
+from typing import Any, cast
 
 from evdev import ecodes
 
 from stiction.drivers.evdev import columns, sizes
 from stiction.drivers.evdev.base import EvdevSourceBase
 from stiction.drivers.evdev.description import EV_ABS, EV_KEY, EV_SYN, AbsAxis, DeviceDescription
-from stiction.drivers.evdev.frames import INPUT_EVENT, DeviceState, Frame, FrameAssembler
+from stiction.drivers.evdev.frames import INPUT_EVENT, DeviceState, Frame, FrameAssembler, _Slot
 from stiction.drivers.evdev.live_code import LiveReader, live_reader
 from stiction.drivers.evdev.source import frame_samples
 from stiction.drivers.evdev.units import SurfaceUnits
-from stiction.drivers.sample import PenSample
+from stiction.drivers.sample import PenSample, Tool
 from stiction.errors import DeviceError
 
 log = logging.getLogger(__name__)
@@ -87,6 +87,116 @@ def read_samples(
     for f in frames:
         out += frame_samples(units, f)
     return out
+
+
+#: FrameAssembler's attributes that new_assembler() makes afresh for each copy; every
+#: other attribute must hold an immutable value (_IMMUTABLE), or nothing is copied
+_MADE_AFRESH = frozenset(
+    {
+        "_counts",
+        "_undo_abs",
+        "_undo_slots",
+        "_keys",
+        "_abs",
+        "_ranges",
+        "_slots",
+        "_spare_slot",
+        "_dirty",
+        "feed_many",
+    }
+)
+_IMMUTABLE = (int, float, str, type(None), frozenset, Tool, DeviceDescription)
+SlotState = tuple[int, int, int, int | None, int, int]
+#: per description (by identity, as live_code._BY_IDENTITY): (description, the
+#: template's attributes, its slots' and spare slot's states) for a description
+#: whose assembler can be copied, else (description, None, (), None)
+_TEMPLATES: dict[
+    int, tuple[DeviceDescription, dict[str, object] | None, tuple[SlotState, ...], SlotState | None]
+] = {}
+
+
+def _copyable(attrs: dict[str, object]) -> bool:
+    """Everything but _MADE_AFRESH is immutable, and those are what _copy expects."""
+    for name, value in attrs.items():
+        if name in _MADE_AFRESH:
+            continue
+        if isinstance(value, tuple):
+            if not all(isinstance(v, _IMMUTABLE) for v in value):
+                return False
+        elif not isinstance(value, _IMMUTABLE):
+            return False
+    return (
+        attrs.keys() >= _MADE_AFRESH
+        and type(attrs["_counts"]) is Counter
+        and all(type(attrs[n]) is dict for n in ("_undo_abs", "_undo_slots", "_abs", "_ranges"))
+        and all(type(attrs[n]) is set for n in ("_keys", "_dirty"))
+        and type(attrs["_slots"]) is list
+        and all(type(s) is _Slot for s in attrs["_slots"])  # type: ignore[attr-defined]
+        and type(attrs["_spare_slot"]) is _Slot
+    )
+
+
+def _slot(state: SlotState) -> _Slot:
+    made = object.__new__(_Slot)
+    made.restore(state)
+    return made
+
+
+def new_assembler(desc: DeviceDescription) -> FrameAssembler:
+    """`FrameAssembler(desc)`, made by copying one made earlier for the same description.
+
+    What a device pays when it is opened: FrameAssembler.__init__ works out
+    the description's properties, ranges and slots in Python (about 8 us);
+    a copy of a pristine assembler made once per description takes its
+    immutable attributes in one dict update and makes only the mutable ones
+    afresh (_MADE_AFRESH: counters, undo state, key set, axis values, slots,
+    the bound `feed_many`), so no two assemblers share mutable state. Should
+    FrameAssembler gain an attribute this does not know to be immutable, no
+    copy is made (`FrameAssembler(desc)` as before);
+    tests/evdev/test_evdev_live_setup.py checks every recording's copy equals
+    a new assembler and shares nothing mutable with it.
+    """
+    known = _TEMPLATES.get(id(desc))
+    if known is None or known[0] is not desc:
+        made = FrameAssembler(desc)
+        attrs = dict(vars(made))
+        if len(_TEMPLATES) >= 64:  # a bound for a process that opens many devices
+            _TEMPLATES.clear()
+        if _copyable(attrs):
+            # the pristine state, kept apart: `made` itself is handed out and changes
+            states = tuple(s.state() for s in attrs["_slots"])  # type: ignore[attr-defined]
+            spare = attrs["_spare_slot"].state()  # type: ignore[attr-defined]
+            pristine = vars(_copy(attrs, states, spare))
+            _TEMPLATES[id(desc)] = (desc, pristine, states, spare)
+        else:
+            _TEMPLATES[id(desc)] = (desc, None, (), None)
+        return made
+    _, pristine_attrs, states, spare = known
+    if pristine_attrs is None or spare is None:
+        return FrameAssembler(desc)
+    return _copy(pristine_attrs, states, spare)
+
+
+def _copy(attrs: dict[str, Any], states: tuple[SlotState, ...], spare: SlotState) -> FrameAssembler:
+    """An assembler with `attrs`, the mutable ones made afresh (_MADE_AFRESH), its
+    slots in `states`."""
+    asm: Any = object.__new__(FrameAssembler)
+    asm.__dict__.update(attrs)
+    asm._counts = Counter()
+    asm._undo_abs = {}
+    asm._undo_slots = {}
+    asm._keys = set()
+    asm._dirty = set()
+    asm._abs = attrs["_abs"].copy()
+    asm._ranges = attrs["_ranges"].copy()
+    asm._slots = [_slot(s) for s in states]
+    asm._spare_slot = _slot(spare)
+    # feed_many as __init__ binds it, to this instance
+    if asm.multitouch:
+        asm.feed_many = asm._feed_mt
+    else:
+        asm.feed_many = functools.partial(asm.feed_many_general, fast=True)
+    return cast(FrameAssembler, asm)
 
 
 class DeviceGone(DeviceError):
@@ -339,7 +449,7 @@ class DeviceSource(EvdevSourceBase):
                     self._ungrab()
 
     def _new_assembler(self) -> FrameAssembler:
-        asm = FrameAssembler(self.description)
+        asm = new_assembler(self.description)
         asm.query_state = self._query_state  # SYN_DROPPED: re-read, report as a frame
         self._assembler = asm
         return asm

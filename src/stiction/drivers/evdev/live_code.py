@@ -43,9 +43,8 @@ from typing import cast
 
 from evdev import ecodes
 
-from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev import live_mt_code
-from stiction.drivers.evdev.frames import INPUT_EVENT, Contact, FrameAssembler
+from stiction.drivers.evdev.frames import Contact, FrameAssembler
 from stiction.drivers.evdev.live_mt_code import (
     COLLECT,
     HAND_OVER,
@@ -107,7 +106,7 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
         tip = "False"
     lines = [
         "s = blank()",
-        "s.t = sec + usec / 1_000_000",
+        "s.t = made  # its frame's time once the read went well",
         # `inside`: the position is on the surface, nothing to clamp (the common case)
         "if inside:",
         f"    s.x = {_minus(xv, x0)} / {rx!r} / 1000",
@@ -145,7 +144,6 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
             lines.append(f"s.{attr} = None")
     lines += [
         "s.buttons = buttons",
-        "s.__class__ = pen",
         "last_sample = s",
         *COLLECT,
     ]
@@ -162,7 +160,7 @@ def _ended_code(indent: str) -> str:
     lines = [
         "o = last_sample",
         "s = blank()",
-        "s.t = sec + usec / 1_000_000",
+        "s.t = made  # its frame's time once the read went well",
         "s.x = o.x",
         "s.y = o.y",
         "s.tip = False",
@@ -173,7 +171,6 @@ def _ended_code(indent: str) -> str:
         "s.tilt_x = o.tilt_x",
         "s.tilt_y = o.tilt_y",
         "s.buttons = o.buttons",
-        "s.__class__ = pen",
         *COLLECT,
         "last_tool = None",
     ]
@@ -343,7 +340,7 @@ def samples(reads):
             made = 0
             first = None  # the read's samples, yielded once the whole read went well
             rest = None
-            for sec, usec, ev_type, code, value in unpack(data):
+            for ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
 {textwrap.indent("".join(branches), " " * 8)}                    continue
                 if ev_type == 0:
@@ -435,9 +432,11 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
         namespace: dict[str, object] = {
             "tnew": tuple.__new__,
             "Contact": Contact,
-            "blank": BlankSample,
+            "blank": live_mt_code.Filling,
             "pen": PenSample,
-            "unpack": INPUT_EVENT.iter_unpack,
+            "unpack": live_mt_code.TYPE_CODE_VALUE.iter_unpack,
+            "stamp": live_mt_code.TIME.unpack_from,
+            "stamped": live_mt_code.stamped,
             "pen_tool": Tool.PEN,
             "finger": Tool.FINGER,
         }

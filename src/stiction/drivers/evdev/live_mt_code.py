@@ -30,10 +30,14 @@ never reported one.
 
 from __future__ import annotations
 
+import struct
+from typing import Any
+
 from evdev import ecodes
 
-from stiction.drivers.evdev.frames import FrameAssembler
+from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.units import SurfaceUnits
+from stiction.drivers.sample import PenSample
 
 ABS_MT_SLOT = ecodes.ABS_MT_SLOT
 #: slot codes that change a contact's tip or tool: the assembler's
@@ -107,7 +111,7 @@ the assembler with the state stored into it and loaded back after, and a
 device that goes away ends its contacts before DeviceGone is raised on."""
 
 
-KEY_EVENT_AND_READ_END = """\
+KEY_EVENT_AND_READ_END = f"""\
                 if ev_type == 1:  # EV_KEY (FrameAssembler.feed_many_general's rules)
                     if code not in valid_keys:
                         odd = (*(odd or ()), 'unknown_code')
@@ -130,15 +134,84 @@ KEY_EVENT_AND_READ_END = """\
                         for name in odd:
                             stats[name] += 1
                     if first is not None:
-                        made_samples += 1
-                        yield first
-                        if rest is not None:
-                            made_samples += len(rest)
-                            yield from rest
+                        if made == 1:  # the usual read: one frame, whose SYN_REPORT ends it
+                            sec, usec = stamp(data, {-INPUT_EVENT.size})
+                            t = sec + usec / 1_000_000
+                            first.t = t
+                            first.__class__ = pen
+                            made_samples += 1
+                            yield first
+                            if rest is not None:
+                                for s in rest:
+                                    s.t = t
+                                    s.__class__ = pen
+                                made_samples += len(rest)
+                                yield from rest
+                        else:
+                            out = stamped(data, first, rest)
+                            made_samples += len(out)
+                            yield from out
                     continue"""
 """The generated readers' shared tail of the event loop (pens and multi-touch
 alike): a key event kept as FrameAssembler.feed_many_general keeps it, and a
-read that ends on its SYN_REPORT counted and its samples handed out."""
+read that ends on its SYN_REPORT counted and its samples handed out.
+
+The event loop unpacks only type, code and value (`unpack`, TYPE_CODE_VALUE):
+an event's time is needed only at a SYN_REPORT, and unpacking it for every
+event made two int objects each time. So a sample is made in the loop with
+`t` holding its frame's number in the read (1, 2, ...) and stays a
+Filling; here, once the read went well, it gets its frame's time and
+becomes a PenSample. The usual read is one frame, and its SYN_REPORT is the
+read's last event (`stamp` reads that event's time); a read of several
+frames goes through `stamped`."""
+
+
+class Filling(PenSample):
+    """A PenSample while a generated reader fills it in (blank_sample.py's idea, cheaper).
+
+    Like BlankSample it is made without __init__, its fields are set by plain
+    attribute stores (object's __setattr__, not the frozen dataclass's), and
+    assigning ``__class__ = PenSample`` then makes it an ordinary PenSample.
+    Being a subclass of PenSample that adds no slots is what makes that
+    assignment cheap: CPython accepts a class change between a type and its
+    base as soon as it sees the child adds nothing to the layout, where two
+    unrelated classes of the same layout (BlankSample and PenSample) have their
+    slot-name tuples compared field by field, at every sample. ``__delattr__``
+    is object's too: PenSample's own would make attribute stores take the slow
+    generic path. No Filling outlives the read that made it: the reader changes
+    the class of every sample it hands out (KEY_EVENT_AND_READ_END, `stamped`).
+    """
+
+    __slots__ = ()
+    __init__ = object.__init__  # type: ignore[assignment]
+    __setattr__ = object.__setattr__  # type: ignore[assignment]
+    __delattr__ = object.__delattr__  # type: ignore[assignment]
+
+
+TYPE_CODE_VALUE = struct.Struct(f"@{INPUT_EVENT.size - 8}xHHi")
+"""`struct input_event` without its time: (type, code, value), as INPUT_EVENT
+unpacks them (the time is two native longs at the start)."""
+TIME = struct.Struct("@ll")
+"""The time at the start of a `struct input_event`: (seconds, microseconds)."""
+
+
+def stamped(data: bytes, first: Filling, rest: list[Filling] | None) -> list[PenSample]:
+    """The samples of a read of several whole frames, each given its frame's time.
+
+    Each sample's `t` holds its frame's number in the read, counted from 1
+    (KEY_EVENT_AND_READ_END); the frame's time is that of its SYN_REPORT,
+    the read's n-th SYN event (any other SYN code sends a read to the
+    assembler, so a read that gets here has no other)."""
+    times = [
+        sec + usec / 1_000_000
+        for sec, usec, ev_type, _, _ in INPUT_EVENT.iter_unpack(data)
+        if ev_type == 0
+    ]
+    out: list[Any] = [first] if rest is None else [first, *rest]
+    for s in out:
+        s.t = times[s.t - 1]
+        s.__class__ = PenSample
+    return out
 
 
 def minus(expr: str, offset: float) -> str:
@@ -230,10 +303,9 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
         )
     else:
         pressure = "                        s.pressure = None\n"
-    return f"""                    t = sec + usec / 1_000_000
-                    for b, cid, tool, tip, btn, k in active:
+    return f"""                    for b, cid, tool, tip, btn, k in active:
                         s = blank()
-                        s.t = t
+                        s.t = made  # its frame's time once the read went well
                         if inside:  # on the surface, nothing to clamp (the common case)
                             s.x = {minus("vals[b]", x0)} / {rx!r} / 1000
                             s.y = {minus("vals[b + 1]", y0)} / {ry!r} / 1000
@@ -257,7 +329,6 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
                         s.tilt_x = None
                         s.tilt_y = None
                         s.buttons = btn
-                        s.__class__ = pen
 {collect(" " * 24)}                        lasts[k] = s
 """
 
@@ -365,7 +436,7 @@ def samples(reads):
             made = 0
             first = None  # the read's samples, yielded once the whole read went well
             rest = None
-            for sec, usec, ev_type, code, value in unpack(data):
+            for ev_type, code, value in unpack(data):
                 if ev_type == 3:  # EV_ABS
 {_branches(asm, units)}                    continue
                 if ev_type == 0:
@@ -399,7 +470,7 @@ def samples(reads):
                             if e[1] not in ids:  # ended: its last sample, tip up, out of range
                                 o = lasts[e[5]]
                                 s = blank()
-                                s.t = sec + usec / 1_000_000
+                                s.t = made  # its frame's time once the read went well
                                 s.x = o.x
                                 s.y = o.y
                                 s.tip = False
@@ -410,7 +481,6 @@ def samples(reads):
                                 s.tilt_x = None
                                 s.tilt_y = None
                                 s.buttons = o.buttons
-                                s.__class__ = pen
 {collect(" " * 32)}                        active = tuple(made_now)
                         lasts = [None] * len(made_now)
                         inside = {inside}
