@@ -15,6 +15,7 @@ import json
 import math
 import textwrap
 from pathlib import Path
+from typing import Any
 
 import pytest
 from evdev import ecodes as e
@@ -30,8 +31,10 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from stiction.cli import main
-from stiction.drivers.evdev import evemu, replay
+from stiction.drivers.evdev import evemu, replay, sizes
 from stiction.drivers.evdev.description import AbsAxis, DeviceDescription
+from stiction.drivers.evdev.device import live_reader_for, new_assembler
+from stiction.drivers.evdev.frames import INPUT_EVENT
 from stiction.drivers.evdev.recording import Recording, load
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.errors import DeviceError, RecordingError, SizeUnknown
@@ -376,22 +379,28 @@ def test_any_capability_set_is_read_on_its_surface_or_refused_in_one_line(
         assert s.pressure is None or 0 <= s.pressure <= 1
         for tilt in (s.tilt_x, s.tilt_y):
             # 90 degrees with the kernel's rounding of units/radian (resolution
-            # 1 allows 135); values sent beyond the range are not clamped (below)
-            assert tilt is None or math.isfinite(tilt)
+            # 1 allows 135); values sent beyond the range are clamped to it
+            assert tilt is None or abs(tilt) <= 135.0
 
 
-@pytest.mark.xfail(
-    reason="tilt values beyond the advertised range are not clamped; the fix belongs "
-    "in units._sample_function and the generated live readers together "
-    "(live_code.py is another engineer's)",
-    strict=True,
-)
-def test_a_tilt_sent_beyond_its_range_stays_within_the_range(tmp_path: Path) -> None:
+@pytest.mark.parametrize("path", ["replay", "live"])
+def test_a_tilt_sent_beyond_its_range_stays_within_the_range(tmp_path: Path, path: str) -> None:
+    """Clamped to the range's end, as positions are to the surface: the replay's
+    compiled loop and the live reader generated for the device alike."""
     desc = device("Acme Pen", PEN_KEYS, pen_axes(ABS_TILT_X=ax(-60, 60), ABS_TILT_Y=ax(-60, 60)))
     events = pen_stroke()
     events.insert(2, (1, 0, e.EV_ABS, e.ABS_TILT_X, 3000))  # firmware garbage
-    samples = _read(tmp_path, desc, events)
-    assert all(abs(s.tilt_x) <= 64.0 for s in samples if s.tilt_x is not None)  # type: ignore[attr-defined]
+    events.insert(3, (1, 0, e.EV_ABS, e.ABS_TILT_Y, -3000))
+    if path == "replay":
+        samples: list[Any] = _read(tmp_path, desc, events)
+    else:
+        sized = sizes.apply(desc, (120.0, 80.0))
+        reader = live_reader_for(new_assembler(sized), SurfaceUnits(sized))
+        reads = [b"".join(INPUT_EVENT.pack(*ev) for ev in events)]
+        samples = list(reader.samples(reads))
+    tilts = [(s.tilt_x, s.tilt_y) for s in samples if s.tilt_x is not None]
+    assert tilts and tilts[0] == (64.0, -64.0)  # no resolution: libinput's +-64 degrees
+    assert all(abs(v) <= 64.0 for pair in tilts for v in pair)
 
 
 # -- the live path: python-evdev against umockdev-mocked nodes -----------------------

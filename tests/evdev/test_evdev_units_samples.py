@@ -37,6 +37,11 @@ def _by_keyword(u: SurfaceUnits, c: Contact, t: float) -> PenSample:
         p = (c.pressure - scale.offset) * scale.scale
         pressure = 0.0 if p < 0.0 else 1.0 if p > 1.0 else p
     tx, ty = u._tilt_x, u._tilt_y
+    tilt_x = tilt_y = None
+    if tx is not None and c.tilt_x is not None:
+        tilt_x = min(max((c.tilt_x - tx.offset) * tx.scale, tx.lo), tx.hi)
+    if ty is not None and c.tilt_y is not None:
+        tilt_y = min(max((c.tilt_y - ty.offset) * ty.scale, ty.lo), ty.hi)
     return PenSample(
         t=t,
         x=(x - x0) / u._rx / 1000,
@@ -46,8 +51,8 @@ def _by_keyword(u: SurfaceUnits, c: Contact, t: float) -> PenSample:
         contact=c.id,
         pressure=pressure,
         tool=c.tool,
-        tilt_x=None if tx is None or c.tilt_x is None else (c.tilt_x - tx.offset) * tx.scale,
-        tilt_y=None if ty is None or c.tilt_y is None else (c.tilt_y - ty.offset) * ty.scale,
+        tilt_x=tilt_x,
+        tilt_y=tilt_y,
         buttons=c.buttons,
     )
 

@@ -240,6 +240,12 @@ def _units_cfg(units: SurfaceUnits) -> np.ndarray:
     ):
         if lin is not None:
             f[off], f[scale] = lin.offset, lin.scale
+    for lo, hi, lin in (
+        (k.F_TX_LO, k.F_TX_HI, units._tilt_x),
+        (k.F_TY_LO, k.F_TY_HI, units._tilt_y),
+    ):
+        if lin is not None:
+            f[lo], f[hi] = lin.lo, lin.hi
     units.__dict__["_columns_cfg"] = f
     return f
 

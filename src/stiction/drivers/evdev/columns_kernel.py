@@ -45,7 +45,8 @@ C_HAS_MT_P = 14
 N_CFG = 15
 F_X0, F_X1, F_Y0, F_Y1, F_RX, F_RY = 0, 1, 2, 3, 4, 5
 F_P_OFF, F_P_SCALE, F_TX_OFF, F_TX_SCALE, F_TY_OFF, F_TY_SCALE = 6, 7, 8, 9, 10, 11
-N_FCFG = 12
+F_TX_LO, F_TX_HI, F_TY_LO, F_TY_HI = 12, 13, 14, 15  # tilt's clamp, in degrees
+N_FCFG = 16
 # prev (the last frame's contact(s)): fields per contact
 P_TID, P_SLOT, P_TOOL, P_X, P_Y, P_P, P_PNONE, P_TIP, P_TLX, P_TLY, P_BTN = range(11)
 N_PREV = 11
@@ -110,6 +111,7 @@ def single(
     p_off, p_scale = fcfg[F_P_OFF], fcfg[F_P_SCALE]
     tx_off, tx_scale = fcfg[F_TX_OFF], fcfg[F_TX_SCALE]
     ty_off, ty_scale = fcfg[F_TY_OFF], fcfg[F_TY_SCALE]
+    tx_lo, tx_hi, ty_lo, ty_hi = fcfg[F_TX_LO], fcfg[F_TX_HI], fcfg[F_TY_LO], fcfg[F_TY_HI]
     ix0, ix1, iy0, iy1 = int(x0), int(x1), int(y0), int(y1)
     key_tool = 0
     for k in range(tool_codes.shape[0]):
@@ -242,8 +244,10 @@ def single(
         out_f[O_Y, n] = (y - iy0) / ry / 1000
         pf = (p - p_off) * p_scale
         out_f[O_P, n] = 0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf
-        out_f[O_TX, n] = (tlx - tx_off) * tx_scale
-        out_f[O_TY, n] = (tly - ty_off) * ty_scale
+        v = (tlx - tx_off) * tx_scale
+        out_f[O_TX, n] = tx_lo if v < tx_lo else tx_hi if v > tx_hi else v
+        v = (tly - ty_off) * ty_scale
+        out_f[O_TY, n] = ty_lo if v < ty_lo else ty_hi if v > ty_hi else v
         n += 1
         f += 1
     cfg[C_SEEN] = 1 if seen else 0

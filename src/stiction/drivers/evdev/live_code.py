@@ -139,7 +139,12 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
     lines.append("s.tool = last_tool")
     for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
         if asm._has_tilt and axis is not None:
-            lines.append(f"s.{attr} = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}")
+            # clamped to the declared range's ends, as units.sample does
+            t_lo, t_hi = axis.lo, axis.hi
+            lines += [
+                f"tv = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}",
+                f"s.{attr} = {t_lo!r} if tv < {t_lo!r} else {t_hi!r} if tv > {t_hi!r} else tv",
+            ]
         else:
             lines.append(f"s.{attr} = None")
     lines += [
@@ -386,7 +391,7 @@ def _key(asm: FrameAssembler, units: SurfaceUnits) -> tuple[object, ...]:
         units._rx,
         units._ry,
         # (offset, scale) pairs: hashing them is cheaper than the dataclasses
-        *((v.offset, v.scale) if v is not None else None for v in scales),
+        *((v.offset, v.scale, v.lo, v.hi) if v is not None else None for v in scales),
     )
 
 

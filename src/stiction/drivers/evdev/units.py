@@ -6,7 +6,9 @@ kernel's resolution in units/mm (Documentation/input/event-codes.rst:
 units per radian; when a driver reports none (old Wacom kernels, tilt 0..127),
 or one that puts the range's ends beyond 90 degrees from upright, the range
 is taken to span -64..+64 degrees around its midpoint, as libinput does for
-Wacom-style tilt without a resolution.
+Wacom-style tilt without a resolution. A tilt beyond the range the device
+declared is clamped to its end, as positions are to the surface and pressure
+to 0..1: firmware garbage must not become a pen leaning 3000 degrees.
 """
 
 from __future__ import annotations
@@ -32,6 +34,9 @@ _MAX_TILT_DEG = 90.0
 class _Linear:
     offset: float
     scale: float
+    #: what a value converts to at most and at least (the axis range's ends)
+    lo: float = -math.inf
+    hi: float = math.inf
 
     def __call__(self, value: int) -> float:
         return (value - self.offset) * self.scale
@@ -58,9 +63,12 @@ def _tilt_scale(axis: AbsAxis | None) -> _Linear | None:
     if axis is None or axis.maximum <= axis.minimum:
         return None
     if axis.resolution > 0 and axis.minimum < 0 < axis.maximum and _tilt_plausible(axis):
-        return _Linear(0.0, math.degrees(1.0 / axis.resolution))
-    mid = (axis.minimum + axis.maximum) / 2.0
-    return _Linear(mid, 2 * _FALLBACK_TILT_DEG / (axis.maximum - axis.minimum))
+        off, scale = 0.0, math.degrees(1.0 / axis.resolution)
+    else:
+        off = (axis.minimum + axis.maximum) / 2.0
+        scale = 2 * _FALLBACK_TILT_DEG / (axis.maximum - axis.minimum)
+    # the same operations as the samples' (value - offset) * scale, at the ends
+    return _Linear(off, scale, (axis.minimum - off) * scale, (axis.maximum - off) * scale)
 
 
 class SurfaceUnits:
@@ -155,6 +163,8 @@ def _sample_function(units: SurfaceUnits) -> Callable[[Contact, float], PenSampl
     has_p = ps is not None
     tx_off, tx_scale = (tx.offset, tx.scale) if tx is not None else (0.0, 0.0)
     ty_off, ty_scale = (ty.offset, ty.scale) if ty is not None else (0.0, 0.0)
+    tx_lo, tx_hi = (tx.lo, tx.hi) if tx is not None else (0.0, 0.0)
+    ty_lo, ty_hi = (ty.lo, ty.hi) if ty is not None else (0.0, 0.0)
     has_tx, has_ty = tx is not None, ty is not None
     blank = BlankSample
     pen_sample = PenSample
@@ -184,8 +194,16 @@ def _sample_function(units: SurfaceUnits) -> Callable[[Contact, float], PenSampl
         else:
             s.pressure = None
         s.tool = tool
-        s.tilt_x = (tlx - tx_off) * tx_scale if has_tx and tlx is not None else None
-        s.tilt_y = (tly - ty_off) * ty_scale if has_ty and tly is not None else None
+        if has_tx and tlx is not None:
+            v = (tlx - tx_off) * tx_scale
+            s.tilt_x = tx_lo if v < tx_lo else tx_hi if v > tx_hi else v
+        else:
+            s.tilt_x = None
+        if has_ty and tly is not None:
+            v = (tly - ty_off) * ty_scale
+            s.tilt_y = ty_lo if v < ty_lo else ty_hi if v > ty_hi else v
+        else:
+            s.tilt_y = None
         s.buttons = buttons
         s.__class__ = pen_sample
         return s  # type: ignore[no-any-return]
