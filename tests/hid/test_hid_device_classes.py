@@ -269,6 +269,31 @@ def test_tilt_is_read_from_its_physical_range_where_a_pen_can_lean_that_far(
     assert s.tilt_x == pytest.approx(degrees) and s.tilt_y == pytest.approx(degrees)
 
 
+@pytest.mark.parametrize(
+    ("tilt", "raw", "degrees"),
+    [
+        # firmware garbage beyond the declared range: clamped to its end
+        ((-9000, 9000, -9000, 9000, DEGREES, -2), 30000, 90.0),
+        ((-9000, 9000, -9000, 9000, DEGREES, -2), -30000, -90.0),
+        ((0, 18000, -9000, 9000, DEGREES, -2), 20000, 90.0),
+        ((-60, 60, 0, 0, 0, 0), 3000, 60.0),  # no unit: degrees, the range's end
+        # no unit and a range wider than a pen can lean: at most 90 degrees
+        ((-127, 127, 0, 0, 0, 0), 120, 90.0),
+        ((-127, 127, 0, 0, 0, 0), -127, -90.0),
+    ],
+)
+def test_a_tilt_beyond_its_range_or_past_flat_is_clamped(
+    tilt: tuple[int, int, int, int, int, int], raw: int, degrees: float
+) -> None:
+    desc = parse_descriptor(pen(collection(0x20, pen_body(tilt=_tilt_field(*tilt)))))
+    data = bytes([2]) + struct.pack("<BHHhh", 0b11, 100, 100, raw, raw)
+    (s,) = ReportStream(desc, "Acme Pen").feed(0.0, data)
+    assert s.tilt_x == pytest.approx(degrees) and s.tilt_y == pytest.approx(degrees)
+    (mapping,) = build_mappings(desc, "Acme Pen").values()
+    # the readable statement of a report clamps alike
+    assert ContactTracker().samples(0.0, mapping, mapping.decoder.decode(data)) == [s]
+
+
 def test_the_surface_book_2_pen_is_upright_at_its_logical_middle(hid_data: Path) -> None:
     path = hid_data.parent / "coverage" / "microsoft-surface-book-2-045e0021-1.hid"
     rec = load_recording(path)

@@ -18,7 +18,7 @@ from dataclasses import dataclass, replace
 
 from stiction.drivers.hid.decoder import ReportDecoder
 from stiction.drivers.hid.descriptor import CONTACT_COLLECTIONS, Field, Report, ReportDescriptor
-from stiction.drivers.hid.units import extent_m, raw_extent_m, tilt_map, unit_name
+from stiction.drivers.hid.units import MAX_TILT_DEG, extent_m, raw_extent_m, tilt_map, unit_name
 from stiction.drivers.sample import PenSample, Tool
 from stiction.errors import DeviceError, SizeUnknown
 
@@ -104,6 +104,10 @@ class ContactLayout:
     #: physical range is not centred on its logical 0 (units.tilt_map)
     tilt_x_off: float = 0.0
     tilt_y_off: float = 0.0
+    #: the degrees a tilt is clamped to: its logical range's ends, at most 90
+    #: degrees from upright (a report's garbage is not a pen leaning 3000 degrees)
+    tilt_x_range: tuple[float, float] = (-MAX_TILT_DEG, MAX_TILT_DEG)
+    tilt_y_range: tuple[float, float] = (-MAX_TILT_DEG, MAX_TILT_DEG)
     #: a finger without a Contact Identifier: its place among the report's such
     #: fingers, so that two of them are two contacts (1 + ordinal), not one
     ordinal: int = 0
@@ -274,10 +278,15 @@ def build_mappings(
                 fp = report.fields[decoder.elements[el[TIP_PRESSURE]].field_index]
                 pmin, pspan = fp.logical_min, fp.logical_max - fp.logical_min
             tx, tx0, ty, ty0 = 1.0, 0.0, 1.0, 0.0
+            txr = tyr = (-MAX_TILT_DEG, MAX_TILT_DEG)
             if X_TILT in el:
-                tx, tx0 = tilt_map(report.fields[decoder.elements[el[X_TILT]].field_index])
+                ftx = report.fields[decoder.elements[el[X_TILT]].field_index]
+                tx, tx0 = tilt_map(ftx)
+                txr = _tilt_range(ftx, tx, tx0)
             if Y_TILT in el:
-                ty, ty0 = tilt_map(report.fields[decoder.elements[el[Y_TILT]].field_index])
+                fty = report.fields[decoder.elements[el[Y_TILT]].field_index]
+                ty, ty0 = tilt_map(fty)
+                tyr = _tilt_range(fty, ty, ty0)
             contacts.append(
                 ContactLayout(
                     finger=finger,
@@ -292,6 +301,8 @@ def build_mappings(
                     tilt_y_deg=ty,
                     tilt_x_off=tx0,
                     tilt_y_off=ty0,
+                    tilt_x_range=txr,
+                    tilt_y_range=tyr,
                     ordinal=sum(1 for c in contacts if c.finger and CONTACT_ID not in c.el),
                 )
             )
@@ -452,12 +463,23 @@ def device_kind(desc: ReportDescriptor, pen_reports: frozenset[int] = frozenset(
     return "other"
 
 
-def _tilt(v: tuple[int, ...], i: int | None, deg: float, off: float) -> float | None:
-    """Degrees of a tilt value; the offset added only where there is one, as the
-    generated code does (adding 0.0 would turn -0.0 into 0.0)."""
+def _tilt_range(f: Field, deg: float, off: float) -> tuple[float, float]:
+    """The degrees a tilt field's values are clamped to: its logical range's ends
+    (the sum the samples make), within 90 degrees of upright."""
+    ends = sorted((f.logical_min * deg + off, f.logical_max * deg + off))
+    return max(ends[0], -MAX_TILT_DEG), min(ends[1], MAX_TILT_DEG)
+
+
+def _tilt(
+    v: tuple[int, ...], i: int | None, deg: float, off: float, bounds: tuple[float, float]
+) -> float | None:
+    """Degrees of a tilt value, clamped to `bounds`; the offset added only where
+    there is one, as the generated code does (adding 0.0 would turn -0.0 into 0.0)."""
     if i is None:
         return None
-    return v[i] * deg + off if off != 0.0 else v[i] * deg
+    tv = v[i] * deg + off if off != 0.0 else v[i] * deg
+    lo, hi = bounds
+    return lo if tv < lo else hi if tv > hi else tv
 
 
 class ContactTracker:
@@ -546,8 +568,8 @@ class ContactTracker:
             contact=contact,
             pressure=pressure,
             tool=tool,
-            tilt_x=_tilt(v, el.get(X_TILT), c.tilt_x_deg, c.tilt_x_off),
-            tilt_y=_tilt(v, el.get(Y_TILT), c.tilt_y_deg, c.tilt_y_off),
+            tilt_x=_tilt(v, el.get(X_TILT), c.tilt_x_deg, c.tilt_x_off, c.tilt_x_range),
+            tilt_y=_tilt(v, el.get(Y_TILT), c.tilt_y_deg, c.tilt_y_off, c.tilt_y_range),
             buttons=buttons,
         )
         self.last[contact] = sample

@@ -312,15 +312,17 @@ def _contact_lines(
     bits = [f"(1 if {v(BARREL)} else 0)"] if BARREL in el else []
     bits += [f"(2 if {v(SECONDARY_BARREL)} else 0)"] if SECONDARY_BARREL in el else []
 
-    def tilt(usage: int, label: str, deg: float, off: float) -> str:
+    def tilt(usage: int, label: str, deg: float, off: float, bounds: tuple[float, float]) -> str:
         if usage not in el:
             return "None"
-        # the same sum as ContactTracker's; `+ 0.0` would turn -0.0 into 0.0
+        # the same sum and clamp as ContactTracker's; `+ 0.0` would turn -0.0 into 0.0
         shift = f" + {const(label + 'o', off)}" if off != 0.0 else ""
-        return f"{v(usage)} * {const(label, deg)}{shift}"
+        lo, hi = const(label + "lo", bounds[0]), const(label + "hi", bounds[1])
+        value = f"{v(usage)} * {const(label, deg)}{shift}"
+        return f"({lo} if (tv := {value}) < {lo} else {hi} if tv > {hi} else tv)"
 
-    tx = tilt(X_TILT, "txd", c.tilt_x_deg, c.tilt_x_off)
-    ty = tilt(Y_TILT, "tyd", c.tilt_y_deg, c.tilt_y_off)
+    tx = tilt(X_TILT, "txd", c.tilt_x_deg, c.tilt_x_off, c.tilt_x_range)
+    ty = tilt(Y_TILT, "tyd", c.tilt_y_deg, c.tilt_y_off, c.tilt_y_range)
     values = {
         "t": "t",
         "x": "x",
