@@ -186,18 +186,7 @@ class RealClock:
                 # (given with its watch) is the tick's own work, better begun
                 # late than after the deadline: it runs whenever there is room.
                 if room >= self.warm_s + spin * WARM_MARGIN or (watch is not None and room > 0):
-                    cpu = time.thread_time()
-                    warm(deadline)
-                    end = monotonic()
-                    took = end - start
-                    self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
-                    self.warmed += 1
-                    if end > deadline and watch is not None:
-                        # A preparation's part past the deadline is the tick's
-                        # work; a warm pass's is lateness, as the tick starts after it.
-                        self.overrun = end - deadline
-                        self.overran += 1
-                        self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
+                    if self._timed(warm, deadline, start, prepares=watch is not None):
                         return
                     if watch is not None:
                         self._watch_until(deadline, watch)
@@ -223,18 +212,29 @@ class RealClock:
         if start >= deadline:
             self.warm_skipped += 1  # too late for anything but the ordinary tick
             return
+        if self._timed(warm, deadline, start, prepares=True):
+            return
+        self._watch_until(deadline, watch, nap)
+
+    def _timed(self, warm: Warm, deadline: float, start: float, *, prepares: bool) -> bool:
+        """Run the warm pass or preparation begun at `start`, learning how long it
+        takes; True when it was a preparation and ran past the deadline.
+
+        A preparation's part past the deadline is the tick's work (`overrun`,
+        and its share of the thread's CPU time); a warm pass's is lateness, as
+        the tick starts after it."""
         cpu = time.thread_time()
         warm(deadline)
-        end = monotonic()
+        end = time.monotonic()
         took = end - start
         self.warm_s += (min(took, WARM_CAP_S) - self.warm_s) * WARM_EMA
         self.warmed += 1
-        if end > deadline:
+        if end > deadline and prepares:
             self.overrun = end - deadline
             self.overran += 1
             self.overrun_cpu = (time.thread_time() - cpu) * self.overrun / took
-            return
-        self._watch_until(deadline, watch, nap)
+            return True
+        return False
 
     def _learn_lateness(self, late: float) -> None:
         """One step of the quantile estimate `late_s` (LATE_QUANTILE)."""
