@@ -34,8 +34,9 @@ from stiction.daemon.options import Options
 from stiction.daemon.wake import Waker
 from stiction.drivers.info import DeviceInfo
 from stiction.drivers.source import SampleSource
-from stiction.errors import StictionError
+from stiction.errors import DeviceError, StictionError
 from stiction.scene.pipeline import DeviceRun
+from stiction.userfiles import shown
 
 log = logging.getLogger("stiction.daemon")  # the loop's logger: log lines keep their name
 
@@ -110,6 +111,7 @@ class DeviceSet:
     def install(self, slot: DeviceSlot, source: Any, display: Display, realtime: int) -> None:
         """Make an opened source the slot's device: mapping, contact state, reader."""
         kind = getattr(source, "kind", "pen")
+        self._check_same_device(slot, source)
         size = slot.config.surface_size or source.surface_size
         slot.kind = kind
         cfg = mapping_config(slot)
@@ -121,6 +123,7 @@ class DeviceSet:
         if slot.source is None and slot.name == slot.config.spec:
             slot.name = source.name
         slot.source = source
+        slot.device_name = source.name
         slot.kind = kind
         slot.surface_size = size
         slot.run = DeviceRun(mapping)
@@ -136,6 +139,28 @@ class DeviceSet:
             start_reader(slot, lambda s: None, self.waker)
             if realtime:  # a device opened (or reopened) while the loop is real-time
                 self.reader_realtime(slot, realtime)
+
+    @staticmethod
+    def _check_same_device(slot: DeviceSlot, source: Any) -> None:
+        """A node reopened at a configured path may be another device: the kernel
+        gives event and hidraw numbers to whatever is plugged in next. A size
+        configured for the first device would then be a silent wrong surface on
+        this one, so that reopening is refused; without one, the newcomer is
+        read on its own size and the change is logged."""
+        before = slot.device_name
+        if before is None or source.name == before:
+            return
+        if slot.config.surface_size is not None:
+            source.close()
+            raise DeviceError(
+                f"{shown(slot.config.spec)} is now {shown(repr(source.name))}, not {before!r}: "
+                f"the size configured for {before!r} is not applied to another device; "
+                "name it by a path that follows it (/dev/input/by-id/..., or VID:PID)"
+            )
+        log.info(
+            "device_changed device=%s spec=%s was=%r now=%r",
+            slot.name, slot.config.spec, before, source.name,
+        )  # fmt: skip
 
     def reader_realtime(self, slot: DeviceSlot, realtime: int) -> None:
         """The reader one priority below the loop's (clock.set_thread_realtime says why)."""
