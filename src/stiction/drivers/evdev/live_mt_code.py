@@ -35,6 +35,7 @@ from typing import Any
 
 from evdev import ecodes
 
+from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
@@ -166,26 +167,10 @@ read's last event (`stamp` reads that event's time); a read of several
 frames goes through `stamped`."""
 
 
-class Filling(PenSample):
-    """A PenSample while a generated reader fills it in (blank_sample.py's idea, cheaper).
-
-    Like BlankSample it is made without __init__, its fields are set by plain
-    attribute stores (object's __setattr__, not the frozen dataclass's), and
-    assigning ``__class__ = PenSample`` then makes it an ordinary PenSample.
-    Being a subclass of PenSample that adds no slots is what makes that
-    assignment cheap: CPython accepts a class change between a type and its
-    base as soon as it sees the child adds nothing to the layout, where two
-    unrelated classes of the same layout (BlankSample and PenSample) have their
-    slot-name tuples compared field by field, at every sample. ``__delattr__``
-    is object's too: PenSample's own would make attribute stores take the slow
-    generic path. No Filling outlives the read that made it: the reader changes
-    the class of every sample it hands out (KEY_EVENT_AND_READ_END, `stamped`).
-    """
-
-    __slots__ = ()
-    __init__ = object.__init__  # type: ignore[assignment]
-    __setattr__ = object.__setattr__  # type: ignore[assignment]
-    __delattr__ = object.__delattr__  # type: ignore[assignment]
+Filling = BlankSample
+"""A PenSample while a generated reader fills it in (blank_sample.py). No Filling
+outlives the read that made it: the reader changes the class of every sample it
+hands out (KEY_EVENT_AND_READ_END, `stamped`)."""
 
 
 TYPE_CODE_VALUE = struct.Struct(f"@{INPUT_EVENT.size - 8}xHHi")
