@@ -123,7 +123,6 @@ class DeviceSet:
         if slot.source is None and slot.name == slot.config.spec:
             slot.name = source.name
         slot.source = source
-        slot.device_name = source.name
         slot.kind = kind
         slot.surface_size = size
         slot.run = DeviceRun(mapping)
@@ -147,8 +146,10 @@ class DeviceSet:
         configured for the first device would then be a silent wrong surface on
         this one, so that reopening is refused; without one, the newcomer is
         read on its own size and the change is logged."""
-        before = slot.device_name
-        if before is None or source.name == before:
+        if slot.source is None:  # the first opening: nothing to compare with
+            return
+        before = slot.source.name  # the device last opened here (closed, its name kept)
+        if source.name == before:
             return
         if slot.config.surface_size is not None:
             source.close()

@@ -335,10 +335,6 @@ class DeviceSlot:
     rejected: int = 0
     errors: int = 0
     reopened: int = 0
-    device_name: str | None = None
-    """The name of the device last opened for this slot: a path spec's node
-    number is reused by the kernel, so what comes back there may be another
-    device (DeviceSet.install)."""
     meter: RateMeter = field(default_factory=RateMeter)
     last_t: float = -math.inf
     went_away: bool = False
