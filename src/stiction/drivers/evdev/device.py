@@ -191,11 +191,7 @@ def _copy(attrs: dict[str, Any], states: tuple[SlotState, ...], spare: SlotState
     asm._ranges = attrs["_ranges"].copy()
     asm._slots = [_slot(s) for s in states]
     asm._spare_slot = _slot(spare)
-    # feed_many as __init__ binds it, to this instance
-    if asm.multitouch:
-        asm.feed_many = asm._feed_mt
-    else:
-        asm.feed_many = functools.partial(asm.feed_many_general, fast=True)
+    asm.bind_feed()  # feed_many as __init__ binds it, to this instance
     return cast(FrameAssembler, asm)
 
 

@@ -212,8 +212,12 @@ class FrameAssembler:
         #: batches shorter than this (events) take feed_many_general on a single-tool
         #: device: three frames of a pen, where the generated loop starts to pay
         self.short_batch = 16
-        # feed_many without its own call layer (a live read is a frame or two, where
-        # one more Python call per batch shows): the loop it would pick, bound here
+        self.bind_feed()
+
+    def bind_feed(self) -> None:
+        """feed_many without its own call layer (a live read is a frame or two, where
+        one more Python call per batch shows): the loop it would pick, bound to this
+        instance (also by device.new_assembler, on a copy)."""
         if self.multitouch:
             self.feed_many = self._feed_mt  # type: ignore[method-assign]
         else:
