@@ -12,9 +12,9 @@ classes of the same layout. Being a subclass that adds nothing is what makes
 that assignment cheap: CPython accepts a change between a type and its base
 as soon as it sees the child adds nothing to the layout, where two unrelated
 classes of the same layout have their slot-name tuples compared field by
-field, at every sample (about 55 ns against 25, measured on the evdev live
-reader, docs/evdev.md). The whole costs a fifth of the keyword __init__, and
-what comes out is an ordinary frozen PenSample:
+field, at every sample: about half of that assignment's cost
+(docs/evdev.md). The whole costs a fifth of the keyword __init__, and what
+comes out is an ordinary frozen PenSample:
 equal, hashable and immutable like any other (tests/hid/test_hid_report_code.py
 and tests/evdev/test_evdev_frames.py check type, equality and immutability).
 
