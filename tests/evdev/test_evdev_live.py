@@ -43,6 +43,10 @@ from stiction.drivers.evdev.units import SurfaceUnits
 Event = tuple[int, int, int, int, int]
 
 
+#: the last live run's reads taken by a shape function (live_shapes.py), and its reads
+SHAPED = [0, 0]
+
+
 def _reads(events: list[Event], cuts: list[int]) -> list[bytes]:
     """The events packed as read() returns them, one read between cuts (event indices)."""
     bounds = [0, *sorted({c for c in cuts if 0 < c < len(events)}), len(events)]
@@ -91,6 +95,7 @@ def _live(desc: DeviceDescription, reads: list[bytes], live: bool) -> list[objec
         for s in reader.samples(device()):
             out.append(s)
     out.append(("gone", dict(asm.stats)))
+    SHAPED[:] = [reader.shaped(), len(reads)]
     assert reader.count() == sum(1 for x in out if not isinstance(x, tuple))
     return out
 
@@ -123,6 +128,9 @@ def test_live_reader_equals_the_assembler_on_recordings(
 ) -> None:
     desc, events = _desc(evdev_data, name)
     assert same_both_ways(desc, events, _frame_cuts(events), live) > 0
+    # the comparison is about the shape path too: it took most of these reads
+    shaped, reads = SHAPED
+    assert shaped > reads // 2, (shaped, reads)
     rng = random.Random(name)
     cuts = [rng.randrange(len(events)) for _ in range(len(events) // 4)]
     assert same_both_ways(desc, events, cuts, live) > 0
@@ -309,11 +317,30 @@ BREAKS: dict[str, Callable[[str], str]] = {
 }
 
 
-@pytest.mark.parametrize("how", list(BREAKS))
+def _wider(text: str) -> str:
+    """Every upper range literal of a shape function wider: values out of range go uncounted."""
+    out, n = re.subn(r"(v\d+) > (-?\d+)", lambda m: f"{m[1]} > {int(m[2]) + 100000}", text)
+    return out if n else text
+
+
+SHAPE_BREAKS: dict[str, Callable[[str], str]] = {
+    # a pen's shape function stores X's value into Y
+    "shape-value-swapped": lambda text: text.replace("c0 = v", "c1 = v"),
+    # a touchpad's shape function tests the wrong range (the Synaptics's X goes beyond)
+    "mt-shape-range-wrong": _wider,
+    # a touchpad's shape function leaves the current slot where the read began
+    "mt-shape-slot-kept": lambda text: re.sub(r"cur = v\d+\n", "pass\n", text),
+}
+
+
+@pytest.mark.parametrize("how", [*BREAKS, *SHAPE_BREAKS])
 def test_the_comparison_catches_a_broken_live_reader(
     evdev_data: Path, monkeypatch: pytest.MonkeyPatch, how: str
 ) -> None:
-    """The generated reader, broken on purpose, must disagree with the assembler."""
+    """The generated reader, broken on purpose, must disagree with the assembler.
+
+    A break of the reader's loop is made in its shape functions too (they are
+    written apart); SHAPE_BREAKS break only the shape functions."""
     name = "synaptics-touchpad.hp8470p.desc" if how.startswith("mt-") else "wacom-intuos4-6x9.desc"
     desc, events = _desc(evdev_data, name)
     events = _with_drops(events)
@@ -321,14 +348,27 @@ def test_the_comparison_catches_a_broken_live_reader(
     cuts = [rng.randrange(len(events)) for _ in range(len(events) // 3)]
     same_both_ways(desc, events, cuts)
     module = live_mt_code if desc.is_multitouch else live_code
-    real = module.source
+    real, real_shape = module.source, module.shape_body
     text = real(FrameAssembler(desc), SurfaceUnits(desc))
-    assert BREAKS[how](text) != text  # here, not inside pytest.raises below
+    change = BREAKS.get(how) or SHAPE_BREAKS[how]
+    if how in BREAKS:
+        assert change(text) != text  # here, not inside pytest.raises below
 
-    def broken(asm: FrameAssembler, units: SurfaceUnits) -> str:
-        return BREAKS[how](real(asm, units))
+        def broken(asm: FrameAssembler, units: SurfaceUnits) -> str:
+            return change(real(asm, units))
 
-    monkeypatch.setattr(module, "source", broken)
+        monkeypatch.setattr(module, "source", broken)
+    changed = []
+
+    def broken_shape(asm: FrameAssembler, units: SurfaceUnits, shape: Any) -> str | None:
+        body = real_shape(asm, units, shape)
+        if body is not None and change(body) != body:
+            changed.append(shape)
+            return change(body)
+        return body
+
+    monkeypatch.setattr(module, "shape_body", broken_shape)
+    monkeypatch.setattr(live_code, "BOOKS", {})
     monkeypatch.setattr(live_code, "_FACTORIES", {})
     monkeypatch.setattr(live_code, "_BY_IDENTITY", {})
     with pytest.raises(AssertionError):
@@ -336,6 +376,8 @@ def test_the_comparison_catches_a_broken_live_reader(
         same_both_ways(desc, events, _frame_cuts(events))
         same_both_ways(DESCS["touchpad"], *_two_fingers())
         same_both_ways(DESCS["pen"], *_pen_story())
+    if how in SHAPE_BREAKS:
+        assert changed  # the shape functions were broken, and that was noticed
 
 
 def test_the_comparison_catches_a_read_of_several_frames_timed_wrong(

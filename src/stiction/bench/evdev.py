@@ -32,7 +32,9 @@ evdev's C reader does the same unpacking):
   frames go straight to PenSamples; a touchpad's, and anything unusual (keys,
   SYN_DROPPED, a read ending mid-frame), through the frame assembler and
   `frame_samples()` (a reader that falls behind gets longer reads, which
-  take the compiled loop).
+  take the compiled loop). Most reads of whole frames are taken by a
+  function written for the read's shape (live_shapes.py); the share is
+  printed.
 
 For transparency the same comparison is also made from ready-made
 InputEvent objects (both paths then skip the wrapping; stiction unpacks
@@ -199,7 +201,9 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
     a, b = ours(), naive()
     if len(a) != len(b) or sum(len(f.contacts) for f in a) != sum(len(f) for f in b):
         raise SystemExit(f"{path.name}: the two paths disagree; refusing to time them")
-    if ours_samples() != ours_reads() + (len(a[-1].contacts) if a else 0):
+    checked = live_reader_for(new_assembler(desc), units)
+    n_reads = sum(1 for _ in checked.samples(reads))
+    if ours_samples() != n_reads + (len(a[-1].contacts) if a else 0):
         # the replay also ends the contacts still down at the recording's end
         raise SystemExit(f"{path.name}: replay and per-read samples disagree; refusing")
     loops = max(1, 20000 // len(events))
@@ -232,6 +236,9 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         "events": len(events),
         "frames": len(a),
         "contacts": sum(len(f.contacts) for f in a),
+        # of the one-frame reads, those a shape function took (live_shapes.py)
+        "reads": len(reads),
+        "shaped_reads": checked.shaped(),
         "seconds": res,
     }
 
@@ -331,6 +338,7 @@ def main(argv: list[str]) -> int:
     per_read_steady = (
         (pooled_s["reads"]["min"] - pooled_s["reads_setup"]["min"]) / total_frames * 1e6
     )
+    shaped_share = sum(r["shaped_reads"] for r in rows) / sum(r["reads"] for r in rows)
     summary = (
         f"\nframe assembler: {total_events / pooled_s['stiction']['min'] / 1e6:.2f} million "
         f"events/s, {pooled_s['stiction']['min'] / total_frames * 1e6:.2f} us per frame; "
@@ -342,6 +350,7 @@ def main(argv: list[str]) -> int:
         f"the same with one read() per frame, as from a live device (DeviceSource.samples()): "
         f"{per_read:.2f} us per frame; {per_read_steady:.2f} without the reader's one-time "
         f"set-up ({setup_us:.1f} us per device, paid when it is opened)\n"
+        f"reads taken by a shape function (live_shapes.py): {shaped_share:.0%}\n"
         f"issue 14's target <= {TARGET_SAMPLES_US:g} us per frame: "
         f"replay {_verdict(per_frame)}; live {_verdict(per_read)} with the set-up counted "
         f"in, {_verdict(per_read_steady)} per frame after it"
@@ -359,6 +368,7 @@ def main(argv: list[str]) -> int:
         "samples_one_read_per_frame_us_per_frame": per_read,
         "samples_one_read_per_frame_steady_us_per_frame": per_read_steady,
         "live_reader_setup_us": setup_us,
+        "shaped_read_share": shaped_share,
         "target_samples_us_per_frame": TARGET_SAMPLES_US,
         "target_met": {
             "replay": per_frame <= TARGET_SAMPLES_US,

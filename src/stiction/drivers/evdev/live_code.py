@@ -37,6 +37,7 @@ device is written by live_mt_code.py.
 
 from __future__ import annotations
 
+import functools
 import textwrap
 from collections.abc import Callable, Iterable, Iterator
 from typing import cast
@@ -50,6 +51,15 @@ from stiction.drivers.evdev.live_mt_code import (
     HAND_OVER,
     KEY_EVENT_AND_READ_END,
     READ_START,
+    TOOK_ONE,
+)
+from stiction.drivers.evdev.live_shapes import (
+    MISS,
+    SYN_REPORT_KEY,
+    UNPACKERS,
+    Book,
+    Shapes,
+    range_lines,
 )
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
@@ -77,10 +87,13 @@ class LiveReader:
         store: Callable[[], None],
         count: Callable[[], int],
         source: str | None,
+        shaped: Callable[[], int] = lambda: 0,
     ) -> None:
         self.samples = samples
         self.store = store
         self.count = count
+        #: how many reads a shape function took (live_shapes.py)
+        self.shaped = shaped
         #: the generated source, for reading what runs (None: not specialised)
         self.source = source
 
@@ -88,10 +101,17 @@ class LiveReader:
 _minus = live_mt_code.minus
 
 
-def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
+def _sample_code(
+    units: SurfaceUnits,
+    asm: FrameAssembler,
+    indent: str,
+    stamp: str = "made  # its frame's time once the read went well",
+    tail: tuple[str, ...] = COLLECT,
+) -> str:
     """Statements that append the PenSample of the contact the cells describe
-    (`last_tool` its tool, `t` the frame time): units._sample_function's
-    arithmetic, operation for operation, with the device's numbers written in."""
+    (`last_tool` its tool, `stamp` the frame time or its number in the read):
+    units._sample_function's arithmetic, operation for operation, with the
+    device's numbers written in; `tail` hands the sample on."""
     x, y = ecodes.ABS_X, ecodes.ABS_Y
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
     x0, x1, y0, y1 = units._bounds
@@ -106,7 +126,7 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
         tip = "False"
     lines = [
         "s = blank()",
-        "s.t = made  # its frame's time once the read went well",
+        f"s.t = {stamp}",
         # `inside`: the position is on the surface, nothing to clamp (the common case)
         "if inside:",
         f"    s.x = {_minus(xv, x0)} / {rx!r} / 1000",
@@ -150,7 +170,7 @@ def _sample_code(units: SurfaceUnits, asm: FrameAssembler, indent: str) -> str:
     lines += [
         "s.buttons = buttons",
         "last_sample = s",
-        *COLLECT,
+        *tail,
     ]
     return "".join(f"{indent}{line}\n" for line in lines)
 
@@ -217,6 +237,80 @@ def _tool_code(asm: FrameAssembler) -> str:
         + _ended_code(" " * 28)
         + "                        continue\n"
         + "                    last_tool = default_tool\n"
+    )
+
+
+def _cells(asm: FrameAssembler) -> list[str]:
+    """The reader's variables a pen's shape function uses (its free variables)."""
+    return [
+        *(f"c{c}" for c in sorted_codes(asm)),
+        "seen",
+        "last_tool",
+        "last_sample",
+        "inside",
+        "asm",
+        "stats",
+        "default_tool",
+        "key_touch",
+        "buttons",
+    ]
+
+
+def shape_body(
+    asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int]]
+) -> str | None:
+    """A pen's shape function (live_shapes.py): the read `shape` and a final SYN_REPORT.
+
+    The same as the reader's loop over those events, written out: every value
+    tested against its range at once (one out of range is counted, as the loop
+    counts it), the cells assigned, the
+    frame counted and its sample built and returned (None: no contact). Keys,
+    other SYN events and unknown axes are not covered (None)."""
+    ranges = asm._ranges
+    x0, x1, y0, y1 = units._bounds
+    surface = {ecodes.ABS_X: (x0, x1), ecodes.ABS_Y: (y0, y1)}
+    targets: list[str] = []
+    misses = [f"last != {SYN_REPORT_KEY}"]
+    assign: list[str] = []
+    checks: list[tuple[str, int, int, bool]] = []
+    has_position = False
+    for i, (ev_type, code) in enumerate(shape):
+        if ev_type in (0, 1) or (ev_type == 3 and code not in ranges):
+            return None  # SYN, keys, an unknown axis: the loop's
+        if ev_type != 3:
+            targets += ["_", "_"]  # EV_MSC and other types: no contact state
+            continue
+        lo, hi = ranges[code]
+        targets += ["_", f"v{i}"]
+        checks.append((f"v{i}", lo, hi, code in surface))
+        assign.append(f"c{code} = v{i}")
+        if code in surface:
+            has_position = True
+            if surface[code] != (lo, hi):
+                s_lo, s_hi = surface[code]
+                assign += [f"if v{i} < {s_lo!r} or v{i} > {s_hi!r}:", "    inside = False"]
+    if not asm._has_tool_keys and not has_position:
+        misses.append("not seen")  # the contact may end: the loop's
+    lines = [
+        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
+        "if (",
+        *(f"    {m} or" for m in misses[:-1]),
+        f"    {misses[-1]}",
+        "):",
+        "    return miss",
+        *range_lines(checks),
+        *assign,
+    ]
+    if has_position:
+        lines.append("seen = True")
+    lines.append("asm._frames += 1")
+    if asm._has_tool_keys:
+        lines += ["if last_tool is None:", "    return None  # no contact"]
+    else:
+        lines.append("last_tool = default_tool")
+    body = "".join(f"{line}\n" for line in lines)
+    return body + _sample_code(
+        units, asm, "", "sec + usec / 1_000_000", ("s.__class__ = pen", "return s")
     )
 
 
@@ -288,6 +382,7 @@ key_tool = None
 key_touch = False
 buttons = 0
 made_samples = 0
+shaped = 0  # reads taken by a shape function (live_shapes.py)
 inside = False  # the position is on the surface (False: the samples clamp it)
 last_sample = None  # the last frame's sample: an ended contact repeats it
 
@@ -335,9 +430,19 @@ def count():
     return made_samples
 
 
+def count_shaped():
+    return shaped
+
+
+def cells():
+    \"\"\"Names every variable a shape function may use (live_shapes.cells_of).\"\"\"
+    return ({", ".join(_cells(asm))})
+
+
 def samples(reads):
     nonlocal {state}, made_samples, inside, last_sample, key_tool, key_touch, buttons
-{READ_START}            snap = ({state})
+    nonlocal shaped
+{READ_START.format(took=TOOK_ONE)}            snap = ({state})
             ev_type = 0  # an empty read is a whole one
             odd = None  # the read's anomalies, counted once the read went well
             keys_changed = False
@@ -368,9 +473,20 @@ def samples(reads):
 {HAND_OVER}"""
 
 
-_Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int]]]
+_Make = Callable[..., tuple[Samples, Callable[[], None], Callable[[], int], Callable[[], int]]]
+#: the end of `make`: the reader's shape functions (live_shapes.Shapes, bound to its
+#: cells), its state taken from the assembler, its functions handed out
+_END = """
+shapes_ = Shapes(book, cells)
+known = shapes_.get
+learn = shapes_.learn
+load()
+return samples, store, count, count_shaped
+"""
 #: the compiled readers, with their source, by everything the source depends on
 _FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
+#: each compiled reader's shape book (live_shapes.Book), by the same key
+BOOKS: dict[tuple[object, ...], Book] = {}
 #: the same by the description and units objects themselves (a DeviceSource reuses
 #: its own; comparing a key is a deep tuple comparison): (desc, units, compiled)
 _BY_IDENTITY: dict[tuple[int, int], tuple[object, object, tuple[_Make, str]]] = {}
@@ -419,10 +535,10 @@ def live_reader(
             _BY_IDENTITY.clear()
         _BY_IDENTITY[(id(asm.desc), id(units))] = (asm.desc, units, compiled)
         make, text = compiled
-    samples, store, count = make(
+    samples, store, count, shaped = make(
         asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
     )
-    return LiveReader(samples, store, count, text)
+    return LiveReader(samples, store, count, text, shaped)
 
 
 def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
@@ -433,8 +549,16 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
         key = ("single", *_key(asm, units))
     made = _FACTORIES.get(key)
     if made is None:
-        text = live_mt_code.source(asm, units) if asm.multitouch else source(asm, units)
+        if asm.multitouch:
+            text = live_mt_code.source(asm, units)
+            writer, cells = live_mt_code.shape_body, live_mt_code.cells(asm)
+        else:
+            text = source(asm, units)
+            writer, cells = shape_body, _cells(asm)
         namespace: dict[str, object] = {
+            "Shapes": Shapes,
+            "unpackers": UNPACKERS.get,
+            "miss": MISS,
             "tnew": tuple.__new__,
             "Contact": Contact,
             "blank": live_mt_code.Filling,
@@ -445,10 +569,17 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
             "pen_tool": Tool.PEN,
             "finger": Tool.FINGER,
         }
-        body = text + "\nload()\nreturn samples, store, count\n"
+        book = Book(
+            functools.partial(writer, asm, units),
+            tuple(cells),
+            namespace,
+        )
+        namespace["book"] = book
+        body = text + _END
         head = "def make(asm, default_tool, fallback, end, gone, long_read, sample, key_buttons):\n"
         name = f"<evdev live reader: {asm.desc.name}>"
         exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
         made = (cast(_Make, namespace["make"]), text)
         _FACTORIES[key] = made
+        BOOKS[key] = book
     return made

@@ -31,12 +31,14 @@ never reported one.
 from __future__ import annotations
 
 import struct
+import textwrap
 from typing import Any
 
 from evdev import ecodes
 
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
+from stiction.drivers.evdev.live_shapes import SYN_REPORT_KEY, range_lines
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
 
@@ -88,10 +90,36 @@ READ_START = """\
                 made_samples += len(out)
                 yield from out
                 continue
+            u = unpackers(len(data))
+            if u is not None:  # the shape path (live_shapes.py)
+                tup = u(data)
+                key = tup[:-3:2]
+                fn = known(key)
+                if fn is None:
+                    fn = learn(key)
+                if fn:
+                    out = fn(tup)
+                    if out is not miss:
+                        shaped += 1
+{took}
+                        continue
 """
 """Both generated readers' first lines per read: a read the reader does not take
 (it holds no state, or the read is long enough for the compiled loop) goes
-whole to the assembler, with the state stored into it and loaded back after."""
+whole to the assembler, with the state stored into it and loaded back after;
+a read whose shape has a function (live_shapes.py) is taken by it, unless the
+function finds the read is not one it covers (`miss`). `took` hands out what
+the function returned."""
+
+TOOK_ONE = """\
+                        if out is not None:
+                            made_samples += 1
+                            yield out"""
+"""A pen's shape function returns its read's sample, or None for a frame without one."""
+TOOK_MANY = """\
+                        made_samples += len(out)
+                        yield from out"""
+"""A multi-touch shape function returns its read's samples, one per finger."""
 
 
 HAND_OVER = """\
@@ -206,6 +234,9 @@ def minus(expr: str, offset: float) -> str:
     return expr if offset == 0 else f"({expr} - {offset!r})"
 
 
+_READ_START_MANY = READ_START.format(took=TOOK_MANY)
+
+
 def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
     ranges = asm._ranges
     x0, x1, y0, y1 = units._bounds
@@ -272,7 +303,14 @@ def _branches(asm: FrameAssembler, units: SurfaceUnits) -> str:
     return "".join(out)
 
 
-def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
+def _sample_code(
+    asm: FrameAssembler,
+    units: SurfaceUnits,
+    stamp: str = "made  # its frame's time once the read went well",
+    hand: str = collect(" " * 24),
+) -> str:
+    """The statements (indented for the reader's loop) that make each contact's sample
+    at SYN_REPORT; `stamp` is its time (or frame number), `hand` hands it on."""
     x0, x1, y0, y1 = units._bounds
     rx, ry = units._rx, units._ry
     ps = units._pressure
@@ -290,7 +328,7 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
         pressure = "                        s.pressure = None\n"
     return f"""                    for b, cid, tool, tip, btn, k in active:
                         s = blank()
-                        s.t = made  # its frame's time once the read went well
+                        s.t = {stamp}
                         if inside:  # on the surface, nothing to clamp (the common case)
                             s.x = {minus("vals[b]", x0)} / {rx!r} / 1000
                             s.y = {minus("vals[b + 1]", y0)} / {ry!r} / 1000
@@ -314,7 +352,7 @@ def _sample_code(asm: FrameAssembler, units: SurfaceUnits) -> str:
                         s.tilt_x = None
                         s.tilt_y = None
                         s.buttons = btn
-{collect(" " * 24)}                        lasts[k] = s
+{hand}                        lasts[k] = s
 """
 
 
@@ -343,6 +381,7 @@ buttons = 0
 rebuild = False  # the contacts are made anew at the next SYN_REPORT (_tid_changed)
 keys_changed = False
 made_samples = 0
+shaped = 0  # reads taken by a shape function (live_shapes.py)
 inside = False  # every contact's position is on the surface (False: the samples clamp)
 
 
@@ -410,9 +449,19 @@ def count():
     return made_samples
 
 
+def count_shaped():
+    return shaped
+
+
+def cells():
+    \"\"\"Names every variable a shape function may use (live_shapes.cells_of).\"\"\"
+    return ({", ".join(cells(asm))})
+
+
 def samples(reads):
     nonlocal cur, active, lasts, buttons, rebuild, keys_changed, made_samples, inside
-{READ_START}            snap = (vals[:], cur, active, buttons, rebuild, keys_changed, inside)
+    nonlocal shaped
+{_READ_START_MANY}            snap = (vals[:], cur, active, buttons, rebuild, keys_changed, inside)
             tsnap = None  # tids, kept once a tracking id comes
             ksnap = None  # the key set, kept once a key comes
             base = 3 * cur
@@ -480,3 +529,95 @@ def samples(reads):
                 keys.clear()
                 keys.update(ksnap)
 {HAND_OVER}"""
+
+
+def cells(asm: FrameAssembler) -> list[str]:
+    """The reader's variables a multi-touch shape function uses (its free variables)."""
+    return [
+        "vals",
+        "cur",
+        "active",
+        "lasts",
+        "inside",
+        "asm",
+        "stats",
+        "rebuild",
+        "keys_changed",
+    ]
+
+
+def shape_body(
+    asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int]]
+) -> str | None:
+    """A multi-touch shape function (live_shapes.py): the read `shape` and a final
+    SYN_REPORT, when no contact begins or ends in it.
+
+    The reader's loop over those events, written out (_branches' rules): every
+    slot number tested against the slots (one off: `miss`, nothing changed, the
+    loop takes the read), every kept value and checked axis against its range
+    at once (one off is counted, as the loop counts it), then the values
+    stored in order, the current slot left where the read leaves it, and each
+    contact's sample made as at SYN_REPORT. A frame whose contacts must be
+    made anew (a key or a tracking id came before it: `rebuild`,
+    `keys_changed`) is the loop's (`miss`); tracking ids, keys, other SYN
+    events, unknown axes and what the assembler takes (distance, tool type)
+    are not covered (None)."""
+    ranges = asm._ranges
+    x0, x1, y0, y1 = units._bounds
+    surface = {ecodes.ABS_MT_POSITION_X: (x0, x1), ecodes.ABS_MT_POSITION_Y: (y0, y1)}
+    targets: list[str] = []
+    misses = [f"last != {SYN_REPORT_KEY}", "rebuild", "keys_changed"]
+    stores: list[str] = []
+    checks: list[tuple[str, int, int, bool]] = []
+    base = "base"  # the current slot's offset in vals: from `cur` until a slot event
+    slot = None  # the variable holding the last slot event's value
+    for i, (ev_type, code) in enumerate(shape):
+        if ev_type in (0, 1) or (ev_type == 3 and code not in ranges):
+            return None  # SYN, keys, an unknown axis: the loop's
+        if ev_type != 3 or (code < ABS_MT_SLOT):
+            targets += ["_", "_"]  # EV_MSC, other types, legacy axes: nothing kept
+            continue
+        if code == ABS_MT_TRACKING_ID or code in _HANDED_OVER:
+            return None  # contacts may begin, end or change: the loop's
+        v = f"v{i}"
+        targets += ["_", v]
+        if code == ABS_MT_SLOT:
+            misses.append(f"{v} < 0 or {v} >= {asm.num_slots}")
+            slot = v
+            base = f"b{i}"
+            stores.append(f"{base} = 3 * {v}")
+            continue
+        lo, hi = ranges[code]
+        checks.append((v, lo, hi, code in surface and surface[code] == (lo, hi) and code in _KEPT))
+        if code in _KEPT:
+            if base == "base" and "base = 3 * cur" not in stores:
+                stores.insert(0, "base = 3 * cur")
+            offset = f" + {_KEPT[code]}" if _KEPT[code] else ""
+            stores.append(f"vals[{base}{offset}] = {v}")
+            if code in surface and surface[code] != (lo, hi):
+                s_lo, s_hi = surface[code]
+                stores += [f"if {v} < {s_lo!r} or {v} > {s_hi!r}:", "    inside = False"]
+    if slot is not None:
+        stores.append(f"cur = {slot}")
+    samples = textwrap.dedent(
+        _sample_code(
+            asm,
+            units,
+            "t",
+            " " * 24 + "s.__class__ = pen\n" + " " * 24 + "out.append(s)\n",
+        )
+    )
+    lines = [
+        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
+        "if (",
+        *(f"    {m} or" for m in misses[:-1]),
+        f"    {misses[-1]}",
+        "):",
+        "    return miss",
+        *range_lines(checks),
+        *stores,
+        "asm._frames += 1",
+        "t = sec + usec / 1_000_000",
+        "out = []",
+    ]
+    return "".join(f"{line}\n" for line in lines) + samples + "return out\n"
