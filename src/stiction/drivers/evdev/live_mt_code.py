@@ -83,6 +83,18 @@ READ_START = """\
     data = b""
     try:
         for data in reads:
+            u = unpackers(len(data))
+            if u is not None and ok:  # the shape path (live_shapes.py)
+                tup = u(data)
+                fn = known(tup[:-3:2])
+                if fn is None:
+                    fn = learn(tup[:-3:2])
+                if fn:
+                    out = fn(tup)
+                    if out is not miss:
+                        shaped += 1
+{took}
+                        continue
             if not ok or len(data) >= long_read:
                 store()
                 out = fallback(data)
@@ -90,26 +102,14 @@ READ_START = """\
                 made_samples += len(out)
                 yield from out
                 continue
-            u = unpackers(len(data))
-            if u is not None:  # the shape path (live_shapes.py)
-                tup = u(data)
-                key = tup[:-3:2]
-                fn = known(key)
-                if fn is None:
-                    fn = learn(key)
-                if fn:
-                    out = fn(tup)
-                    if out is not miss:
-                        shaped += 1
-{took}
-                        continue
 """
-"""Both generated readers' first lines per read: a read the reader does not take
-(it holds no state, or the read is long enough for the compiled loop) goes
-whole to the assembler, with the state stored into it and loaded back after;
-a read whose shape has a function (live_shapes.py) is taken by it, unless the
-function finds the read is not one it covers (`miss`). `took` hands out what
-the function returned."""
+"""Both generated readers' first lines per read: a read whose shape has a function
+(live_shapes.py; only reads shorter than the compiled loop's have an unpacker)
+is taken by it while the reader holds the state, unless the function finds
+the read is not one it covers (`miss`); `took` hands out what the function
+returned. A read the reader does not take (it holds no state, or the read is
+long enough for the compiled loop) goes whole to the assembler, with the state
+stored into it and loaded back after."""
 
 TOOK_ONE = """\
                         if out is not None:
@@ -117,9 +117,14 @@ TOOK_ONE = """\
                             yield out"""
 """A pen's shape function returns its read's sample, or None for a frame without one."""
 TOOK_MANY = """\
-                        made_samples += len(out)
-                        yield from out"""
-"""A multi-touch shape function returns its read's samples, one per finger."""
+                        if out.__class__ is pen:
+                            made_samples += 1
+                            yield out
+                        else:
+                            made_samples += len(out)
+                            yield from out"""
+"""A multi-touch shape function returns its read's sample (one finger) or samples
+(a list, one per finger: none, or two and more)."""
 
 
 HAND_OVER = """\
@@ -599,13 +604,19 @@ def shape_body(
                 stores += [f"if {v} < {s_lo!r} or {v} > {s_hi!r}:", "    inside = False"]
     if slot is not None:
         stores.append(f"cur = {slot}")
-    samples = textwrap.dedent(
-        _sample_code(
-            asm,
-            units,
-            "t",
-            " " * 24 + "s.__class__ = pen\n" + " " * 24 + "out.append(s)\n",
-        )
+    each = _sample_code(
+        asm, units, "t", " " * 24 + "s.__class__ = pen\n" + " " * 24 + "out.append(s)\n"
+    )
+    # one finger (the usual read): its sample alone, no list and no loop
+    head, _, body = each.partition("\n")
+    one = textwrap.dedent(body).replace("out.append(s)\n", "")
+    samples = (
+        "if len(active) == 1:\n"
+        "    ((b, cid, tool, tip, btn, k),) = active\n"
+        + textwrap.indent(one, "    ")
+        + "    return s\n"
+        + "out = []\n"
+        + textwrap.dedent(each)
     )
     lines = [
         f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
@@ -618,6 +629,5 @@ def shape_body(
         *stores,
         "asm._frames += 1",
         "t = sec + usec / 1_000_000",
-        "out = []",
     ]
     return "".join(f"{line}\n" for line in lines) + samples + "return out\n"

@@ -43,6 +43,7 @@ import types
 from collections.abc import Callable
 from typing import Any
 
+from stiction.drivers.evdev.columns import MIN_EVENTS
 from stiction.drivers.evdev.frames import INPUT_EVENT
 
 MAX_COMPILED = 128
@@ -50,8 +51,9 @@ MAX_COMPILED = 128
 once and a code object of a few kilobytes)."""
 MAX_KNOWN = 512
 """Keys a reader remembers (compiled or not): its dict does not grow past this."""
-MAX_EVENTS = 64
-"""Longest read (in events) the shape path unpacks; longer ones take the general loop."""
+MAX_EVENTS = MIN_EVENTS - 1
+"""Longest read (in events) the shape path unpacks: longer ones are the compiled
+loop's (columns.py), as the readers hand them over."""
 
 MISS: Any = object()
 """What a shape function returns when the read is not one its code covers: it has
@@ -137,6 +139,8 @@ class Book:
         self.cells = cells
         self.namespace = namespace
         self.codes: dict[tuple[int, ...], types.CodeType | None] = {}
+        #: (key, code) of every compiled shape: what a new reader binds at once
+        self.compiled_items: list[tuple[tuple[int, ...], types.CodeType]] = []
         self.compiled = 0
         #: the source of every compiled shape, for reading what runs
         self.sources: dict[tuple[int, ...], str] = {}
@@ -153,6 +157,7 @@ class Book:
             self.compiled += 1
             code = self._compile(body, key)
             self.sources[key] = body
+            self.compiled_items.append((key, code))
         self.codes[key] = code
         return code
 
@@ -175,8 +180,8 @@ class Book:
 class Shapes:
     """One reader's shape functions: `get(key)` per read, `learn(key)` on a miss.
 
-    `cell_of` is the reader's closure cells by name (from a function of the
-    reader that names them all)."""
+    `cells` is a function of the reader that names every variable a shape
+    function may use: its closure is the reader's cells."""
 
     def __init__(self, book: Book, cells: Callable[..., object]) -> None:
         self.book = book
@@ -189,11 +194,10 @@ class Shapes:
         self.closure: tuple[Any, ...] = ()
         # the shapes the book compiled for earlier readers of this kind, bound at
         # once: cheaper than one `learn` call each as they come
-        codes = [(k, c) for k, c in book.codes.items() if c is not None]
-        if codes:
-            self._bind(codes[0][1])
+        if book.compiled_items:
+            self._bind(book.compiled_items[0][1])
             new, ns, closure = types.FunctionType, book.namespace, self.closure
-            self.known.update((k, new(c, ns, c.co_name, None, closure)) for k, c in codes)
+            self.known.update({k: new(c, ns, None, None, closure) for k, c in book.compiled_items})
 
     def learn(self, key: tuple[int, ...]) -> Any:
         """The function for a key this reader has not seen (False: none)."""
@@ -204,14 +208,18 @@ class Shapes:
         if code is not None:
             if code.co_freevars != self.freevars:  # the first (the same for all after)
                 self._bind(code)
-            fn = types.FunctionType(code, self.book.namespace, code.co_name, None, self.closure)
+            fn = types.FunctionType(code, self.book.namespace, None, None, self.closure)
         self.known[key] = fn
         return fn
 
     def _bind(self, code: types.CodeType) -> None:
         """The closure for `code`'s free variables: this reader's cells."""
-        cell_of = cells_of(self.cells)
-        self.closure = tuple(cell_of[name] for name in code.co_freevars)
+        own = self.cells.__code__.co_freevars  # type: ignore[attr-defined]
+        if code.co_freevars == own:  # the same names in the same order: its closure
+            self.closure = self.cells.__closure__  # type: ignore[attr-defined]
+        else:
+            cell_of = cells_of(self.cells)
+            self.closure = tuple(cell_of[name] for name in code.co_freevars)
         self.freevars = code.co_freevars
 
 
