@@ -608,7 +608,7 @@ def shape_body(
         asm, units, "t", " " * 24 + "s.__class__ = pen\n" + " " * 24 + "out.append(s)\n"
     )
     # one finger (the usual read): its sample alone, no list and no loop
-    head, _, body = each.partition("\n")
+    _, _, body = each.partition("\n")  # the loop header off
     one = textwrap.dedent(body).replace("out.append(s)\n", "")
     samples = (
         "if len(active) == 1:\n"
