@@ -326,6 +326,8 @@ def _wider(text: str) -> str:
 SHAPE_BREAKS: dict[str, Callable[[str], str]] = {
     # a pen's shape function stores X's value into Y
     "shape-value-swapped": lambda text: text.replace("c0 = v", "c1 = v"),
+    # a pen's shape function takes a field from its cache without checking the value
+    "shape-cache-stale": lambda text: re.sub(r"if c(\d+) == r\1:", r"if r\1 is not None:", text),
     # a touchpad's shape function tests the wrong range (the Synaptics's X goes beyond)
     "mt-shape-range-wrong": _wider,
     # a touchpad's shape function leaves the current slot where the read began

@@ -175,6 +175,100 @@ def _sample_code(
     return "".join(f"{indent}{line}\n" for line in lines)
 
 
+def _derived(units: SurfaceUnits, asm: FrameAssembler) -> list[tuple[int, str, list[str]]]:
+    """The sample's fields that follow from one axis alone: (code, field, statements
+    that set `v` from the cell `c<code>`, units.sample's arithmetic with the
+    clamping written in). A position is clamped to the surface and a tilt to
+    its range; a value already inside is left as it is, so the statements give
+    the same number as _sample_code's (which skips the clamping while `inside`)."""
+    x, y = ecodes.ABS_X, ecodes.ABS_Y
+    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
+    x0, x1, y0, y1 = units._bounds
+    out: list[tuple[int, str, list[str]]] = []
+    for code, attr, lo, hi, r in ((x, "x", x0, x1, units._rx), (y, "y", y0, y1, units._ry)):
+        if code in asm._abs:
+            out.append(
+                (
+                    code,
+                    attr,
+                    [
+                        f"v = c{code}",
+                        f"if v < {lo!r}:",
+                        f"    v = {lo!r}",
+                        f"elif v > {hi!r}:",
+                        f"    v = {hi!r}",
+                        f"v = {_minus('v', lo)} / {r!r} / 1000",
+                    ],
+                )
+            )
+    ps = units._pressure
+    if asm._has_pressure and ps is not None:
+        out.append(
+            (
+                p,
+                "pressure",
+                [
+                    f"v = {_minus(f'c{p}', ps.offset)} * {ps.scale!r}",
+                    "v = 0.0 if v < 0.0 else 1.0 if v > 1.0 else v",
+                ],
+            )
+        )
+    for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
+        if asm._has_tilt and axis is not None:
+            t_lo, t_hi = axis.lo, axis.hi
+            out.append(
+                (
+                    code,
+                    attr,
+                    [
+                        f"v = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}",
+                        f"v = {t_lo!r} if v < {t_lo!r} else {t_hi!r} if v > {t_hi!r} else v",
+                    ],
+                )
+            )
+    return out
+
+
+def _shape_sample_code(units: SurfaceUnits, asm: FrameAssembler, changed: set[int]) -> str:
+    """A shape function's sample (indent 0), returned: _sample_code's numbers, with a
+    field of an axis the read did not change taken from the last one made from the
+    same value (`r<code>` the axis value, `f<code>` the field: each a float made
+    once, not per read). The cache is checked against the value itself, so cells
+    changed by the reader's loop or the assembler meanwhile only miss it."""
+    derived = _derived(units, asm)
+    lines = ["s = blank()", "s.t = sec + usec / 1_000_000"]
+    positions = [code for code, attr, _ in derived if attr in ("x", "y")]
+    if len(positions) < 2 or all(code in changed for code in positions):
+        # the position moved (the usual read): _sample_code's, `inside` and all
+        full = _sample_code(units, asm, "", "sec + usec / 1_000_000", ())
+        lines += [
+            line for line in full.splitlines()[2:] if line.startswith(("if inside", " ", "else"))
+        ]
+        derived = [d for d in derived if d[1] not in ("x", "y")]
+    for code, attr, compute in derived:
+        if code in changed:
+            lines += [*compute, f"s.{attr} = v"]
+        else:
+            lines += [
+                f"if c{code} == r{code}:",
+                f"    s.{attr} = f{code}",
+                "else:",
+                *(f"    {line}" for line in compute),
+                f"    s.{attr} = f{code} = v",
+                f"    r{code} = c{code}",
+            ]
+    fields = {attr for _, attr, _ in _derived(units, asm)}
+    full = _sample_code(units, asm, "", "sec + usec / 1_000_000", ())
+    for line in full.splitlines():
+        # the fields no axis alone decides: tip, tool, buttons, constants, Nones
+        if line.startswith("s.") and line.split(" = ")[0][2:] not in {"t", *fields}:
+            if line.split(" = ")[0][2:] in ("x", "y"):
+                continue
+            lines.append(line)
+    lines += ["last_sample = s", "s.__class__ = pen", "return s"]
+    return "".join(f"{line}\n" for line in lines)
+
+
 def _lines(template: str, codes: list[int], indent: str) -> str:
     return "".join(indent + template.format(c=c) + "\n" for c in codes)
 
@@ -240,10 +334,11 @@ def _tool_code(asm: FrameAssembler) -> str:
     )
 
 
-def _cells(asm: FrameAssembler) -> list[str]:
+def _cells(asm: FrameAssembler, units: SurfaceUnits) -> list[str]:
     """The reader's variables a pen's shape function uses (its free variables)."""
     return [
         *(f"c{c}" for c in sorted_codes(asm)),
+        *(f"{kind}{code}" for code, _, _ in _derived(units, asm) for kind in "rf"),
         "seen",
         "last_tool",
         "last_sample",
@@ -309,9 +404,8 @@ def shape_body(
     else:
         lines.append("last_tool = default_tool")
     body = "".join(f"{line}\n" for line in lines)
-    return body + _sample_code(
-        units, asm, "", "sec + usec / 1_000_000", ("s.__class__ = pen", "return s")
-    )
+    changed = {code for ev_type, code in shape if ev_type == 3}
+    return body + _shape_sample_code(units, asm, changed)
 
 
 def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
@@ -323,6 +417,8 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     completed included: counters are only added when a read ends well).
     """
     codes = sorted_codes(asm)
+    # a shape function's cache of the fields one axis decides (_shape_sample_code)
+    derived = [code for code, _, _ in _derived(units, asm)]
     ranges = asm._ranges
     x, y = ecodes.ABS_X, ecodes.ABS_Y
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
@@ -374,7 +470,7 @@ keys = asm._keys  # the assembler's own key set, changed in place
 valid_keys = asm._valid_keys
 key_state = asm._key_state
 ok = False  # the cells hold the assembler's state; else the assembler holds it
-{_lines("c{c} = 0", codes, "")}seen = False
+{_lines("c{c} = 0", codes, "")}{_lines("r{c} = f{c} = None", derived, "")}seen = False
 last_tool = None  # the tool of the last frame's contact; None: it had none
 force = False  # the assembler's _dirty_all when loaded: kept until a frame is made
 loaded_frames = 0  # the assembler's frame count when loaded
@@ -436,7 +532,7 @@ def count_shaped():
 
 def cells():
     \"\"\"Names every variable a shape function may use (live_shapes.cells_of).\"\"\"
-    return ({", ".join(_cells(asm))})
+    return ({", ".join(_cells(asm, units))})
 
 
 def samples(reads):
@@ -554,7 +650,7 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
             writer, cells = live_mt_code.shape_body, live_mt_code.cells(asm)
         else:
             text = source(asm, units)
-            writer, cells = shape_body, _cells(asm)
+            writer, cells = shape_body, _cells(asm, units)
         namespace: dict[str, object] = {
             "Shapes": Shapes,
             "unpackers": UNPACKERS.get,
