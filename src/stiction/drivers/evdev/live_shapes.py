@@ -183,7 +183,7 @@ class Shapes:
     `cells` is a function of the reader that names every variable a shape
     function may use: its closure is the reader's cells."""
 
-    def __init__(self, book: Book, cells: Callable[..., object]) -> None:
+    def __init__(self, book: Book, cells: types.FunctionType) -> None:
         self.book = book
         self.cells = cells
         self.known: dict[tuple[int, ...], Any] = {}
@@ -214,17 +214,15 @@ class Shapes:
 
     def _bind(self, code: types.CodeType) -> None:
         """The closure for `code`'s free variables: this reader's cells."""
-        own = self.cells.__code__.co_freevars  # type: ignore[attr-defined]
-        if code.co_freevars == own:  # the same names in the same order: its closure
-            self.closure = self.cells.__closure__  # type: ignore[attr-defined]
+        if code.co_freevars == self.cells.__code__.co_freevars:
+            # the same names in the same order: the reader's closure itself
+            self.closure = self.cells.__closure__ or ()
         else:
             cell_of = cells_of(self.cells)
             self.closure = tuple(cell_of[name] for name in code.co_freevars)
         self.freevars = code.co_freevars
 
 
-def cells_of(fn: Callable[..., object]) -> dict[str, Any]:
+def cells_of(fn: types.FunctionType) -> dict[str, Any]:
     """A nested function's closure cells by name."""
-    code = fn.__code__  # type: ignore[attr-defined]
-    closure = fn.__closure__ or ()  # type: ignore[attr-defined]
-    return dict(zip(code.co_freevars, closure, strict=True))
+    return dict(zip(fn.__code__.co_freevars, fn.__closure__ or (), strict=True))
