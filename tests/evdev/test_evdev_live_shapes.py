@@ -58,7 +58,8 @@ def test_many_shapes_stay_bounded_and_equal(monkeypatch: pytest.MonkeyPatch) -> 
 
 
 def test_a_reader_remembers_a_bounded_number_of_keys(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Keys of shapes that are never compiled (keys in them) are remembered up to a bound."""
+    """Keys of shapes that are never compiled (keys in them) are remembered up to a bound,
+    and a reader that remembers no more stops asking to learn new ones."""
     monkeypatch.setattr(live_code, "BOOKS", {})
     monkeypatch.setattr(live_code, "_FACTORIES", {})
     monkeypatch.setattr(live_code, "_BY_IDENTITY", {})
@@ -71,6 +72,14 @@ def test_a_reader_remembers_a_bounded_number_of_keys(monkeypatch: pytest.MonkeyP
         known.append(self)
 
     monkeypatch.setattr(live_shapes.Shapes, "__init__", spy)
+    asked: list[object] = []
+    real_learn = live_shapes.Shapes.learn
+
+    def learn(self: live_shapes.Shapes, key: tuple[int, ...]) -> object:
+        asked.append(key)
+        return real_learn(self, key)
+
+    monkeypatch.setattr(live_shapes.Shapes, "learn", learn)
     events: list[Event] = []
     cuts = []
     for i, n in enumerate(itertools.islice(itertools.count(1), 40)):
@@ -81,5 +90,7 @@ def test_a_reader_remembers_a_bounded_number_of_keys(monkeypatch: pytest.MonkeyP
         cuts.append(len(events))
     same_both_ways(DESCS["pen"], events, cuts)
     assert known and all(len(s.known) <= 10 for s in known)
+    # once full, a reader stops asking: 10 keys learnt, one refused, then none asked
+    assert len(asked) == 11 * len(known)
     assert all(len(b.codes) <= 10 and b.compiled == 0 for b in live_code.BOOKS.values())
     assert SHAPED[0] == 0

@@ -81,14 +81,17 @@ def collect(indent: str) -> str:
 
 READ_START = """\
     data = b""
+    fresh = None  # an unknown shape: None, ask to learn it; False once no more can be
     try:
         for data in reads:
             u = unpackers(len(data))
             if u is not None and ok:  # the shape path (live_shapes.py)
                 tup = u(data)
-                fn = known(tup[:-3:2])
+                fn = known(tup[:-3:2], fresh)
                 if fn is None:
                     fn = learn(tup[:-3:2])
+                    if fn is None:
+                        fresh = False
                 if fn:
                     out = fn(tup)
                     if out is not miss:

@@ -33,7 +33,7 @@ Bounded against a device that sends many shapes (a hostile or broken one):
 a kind of device compiles at most `MAX_COMPILED` shapes in a process, and
 it and each reader remember at most `MAX_KNOWN` keys; past either, a new shape takes
 the general loop, paying one unpack and one dict lookup more per read (a
-constant), and nothing grows.
+constant: the reader stops asking to learn), and nothing grows.
 """
 
 from __future__ import annotations
@@ -200,10 +200,15 @@ class Shapes:
             self.known.update({k: new(c, ns, None, None, closure) for k, c in book.compiled_items})
 
     def learn(self, key: tuple[int, ...]) -> Any:
-        """The function for a key this reader has not seen (False: none)."""
+        """The function for a key this reader has not seen (False: none), or None
+        when this reader or its book remembers no more keys: the reader then
+        stops asking (`fresh` in live_mt_code.READ_START), and a new shape costs
+        it one dict lookup more than its loop, not a call."""
         if len(self.known) >= MAX_KNOWN:
-            return False
+            return None
         code = self.book.code(key)
+        if code is None and key not in self.book.codes:
+            return None  # the book is full
         fn: Any = False
         if code is not None:
             if code.co_freevars != self.freevars:  # the first (the same for all after)
