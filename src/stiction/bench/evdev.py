@@ -34,7 +34,8 @@ evdev's C reader does the same unpacking):
   `frame_samples()` (a reader that falls behind gets longer reads, which
   take the compiled loop). Most reads of whole frames are taken by a
   function written for the read's shape (live_shapes.py); the share is
-  printed.
+  printed, and the same reader without them is timed beside it (the
+  ratio: how much the shape functions save).
 
 For transparency the same comparison is also made from ready-made
 InputEvent objects (both paths then skip the wrapping; stiction unpacks
@@ -52,6 +53,7 @@ Writes evdev.{json,txt,png} in the results folder (--save: bench/results/).
 from __future__ import annotations
 
 import argparse
+import functools
 import json
 import platform
 import statistics
@@ -184,6 +186,21 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
             n += 1
         return n
 
+    from stiction.drivers.evdev import columns
+    from stiction.drivers.evdev.device import read_samples
+    from stiction.drivers.evdev.live_code import live_reader
+
+    def ours_reads_plain() -> int:
+        # the same reader without its shape functions (live_shapes.py): the comparison
+        asm = new_assembler(desc)
+        fallback = functools.partial(read_samples, asm, units)
+        long_read = INPUT_EVENT.size * columns.MIN_EVENTS
+        reader = live_reader(asm, units, fallback, fallback, Exception, long_read, shapes=False)
+        n = 0
+        for _ in reader.samples(reads):
+            n += 1
+        return n
+
     def reads_setup() -> int:
         # the same set-up with no read: what a device pays once, when opened
         n = 0
@@ -203,7 +220,9 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         raise SystemExit(f"{path.name}: the two paths disagree; refusing to time them")
     checked = live_reader_for(new_assembler(desc), units)
     n_reads = sum(1 for _ in checked.samples(reads))
-    if ours_samples() != n_reads + (len(a[-1].contacts) if a else 0):
+    if ours_samples() != n_reads + (len(a[-1].contacts) if a else 0) or (
+        ours_reads_plain() != n_reads
+    ):
         # the replay also ends the contacts still down at the recording's end
         raise SystemExit(f"{path.name}: replay and per-read samples disagree; refusing")
     loops = max(1, 20000 // len(events))
@@ -222,6 +241,7 @@ def _bench_recording(path: Path, repeat: int) -> dict[str, Any]:
         "stiction": many(ours),
         "samples": many(ours_samples),
         "reads": many(ours_reads),
+        "reads_plain": many(ours_reads_plain),
         "reads_setup": many(reads_setup),
         "naive_objects": many(naive_objects),
         "stiction_objects": many(ours_objects),
@@ -313,6 +333,7 @@ def main(argv: list[str]) -> int:
             "stiction",
             "samples",
             "reads",
+            "reads_plain",
             "reads_setup",
             "naive_objects",
             "stiction_objects",
@@ -338,6 +359,7 @@ def main(argv: list[str]) -> int:
     per_read_steady = (
         (pooled_s["reads"]["min"] - pooled_s["reads_setup"]["min"]) / total_frames * 1e6
     )
+    per_read_plain = pooled_s["reads_plain"]["min"] / total_frames * 1e6
     shaped_share = sum(r["shaped_reads"] for r in rows) / sum(r["reads"] for r in rows)
     summary = (
         f"\nframe assembler: {total_events / pooled_s['stiction']['min'] / 1e6:.2f} million "
@@ -350,7 +372,9 @@ def main(argv: list[str]) -> int:
         f"the same with one read() per frame, as from a live device (DeviceSource.samples()): "
         f"{per_read:.2f} us per frame; {per_read_steady:.2f} without the reader's one-time "
         f"set-up ({setup_us:.1f} us per device, paid when it is opened)\n"
-        f"reads taken by a shape function (live_shapes.py): {shaped_share:.0%}\n"
+        f"reads taken by a shape function (live_shapes.py): {shaped_share:.0%}; "
+        f"the same reader without them: {per_read_plain:.2f} us per frame "
+        f"({per_read_plain / per_read:.2f}x)\n"
         f"issue 14's target <= {TARGET_SAMPLES_US:g} us per frame: "
         f"replay {_verdict(per_frame)}; live {_verdict(per_read)} with the set-up counted "
         f"in, {_verdict(per_read_steady)} per frame after it"
@@ -369,6 +393,7 @@ def main(argv: list[str]) -> int:
         "samples_one_read_per_frame_steady_us_per_frame": per_read_steady,
         "live_reader_setup_us": setup_us,
         "shaped_read_share": shaped_share,
+        "samples_one_read_per_frame_no_shapes_us_per_frame": per_read_plain,
         "target_samples_us_per_frame": TARGET_SAMPLES_US,
         "target_met": {
             "replay": per_frame <= TARGET_SAMPLES_US,

@@ -579,6 +579,8 @@ learn = shapes_.learn
 load()
 return samples, store, count, count_shaped
 """
+#: no read's unpacker: a reader made with shapes=False takes no read by its shape
+_NO_SHAPES: dict[int, object] = {}
 #: the compiled readers, with their source, by everything the source depends on
 _FACTORIES: dict[tuple[object, ...], tuple[_Make, str]] = {}
 #: each compiled reader's shape book (live_shapes.Book), by the same key
@@ -614,13 +616,16 @@ def live_reader(
     end: End,
     gone: type[BaseException],
     long_read: int,
+    shapes: bool = True,
 ) -> LiveReader:
     """The reader generated for `asm`'s device (live_mt_code.py writes a multi-touch one).
 
     `fallback(data)`: the assembler's path for a read (device.read_samples
     bound to asm and units); it takes every read of `long_read` bytes or
     more. `end(data)`: the samples that end the contacts once `gone` was
-    raised after the read `data`.
+    raised after the read `data`. `shapes=False`: no shape functions
+    (live_shapes.py), every read walked by the loop -- the reader as it was
+    before them, for the benchmark's comparison.
     """
     known = _BY_IDENTITY.get((id(asm.desc), id(units)))
     if known is not None and known[0] is asm.desc and known[1] is units:
@@ -632,7 +637,15 @@ def live_reader(
         _BY_IDENTITY[(id(asm.desc), id(units))] = (asm.desc, units, compiled)
         make, text = compiled
     samples, store, count, shaped = make(
-        asm, asm._default_tool, fallback, end, gone, long_read, units.sample, asm._buttons
+        asm,
+        asm._default_tool,
+        fallback,
+        end,
+        gone,
+        long_read,
+        units.sample,
+        asm._buttons,
+        UNPACKERS.get if shapes else _NO_SHAPES.get,
     )
     return LiveReader(samples, store, count, text, shaped)
 
@@ -653,7 +666,6 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
             writer, cells = shape_body, _cells(asm, units)
         namespace: dict[str, object] = {
             "Shapes": Shapes,
-            "unpackers": UNPACKERS.get,
             "miss": MISS,
             "tnew": tuple.__new__,
             "Contact": Contact,
@@ -672,7 +684,10 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
         )
         namespace["book"] = book
         body = text + _END
-        head = "def make(asm, default_tool, fallback, end, gone, long_read, sample, key_buttons):\n"
+        head = (
+            "def make(asm, default_tool, fallback, end, gone, long_read, sample, key_buttons,"
+            " unpackers):\n"
+        )
         name = f"<evdev live reader: {asm.desc.name}>"
         exec(compile(head + textwrap.indent(body, "    "), name, "exec"), namespace)
         made = (cast(_Make, namespace["make"]), text)
