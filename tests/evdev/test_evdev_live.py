@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 from test_evdev_fast_paths import DESCS, STATE, _codes, _values, _with_drops
 
 from stiction.bench.evdev import RECORDINGS  # the recordings the benchmark times
-from stiction.drivers.evdev import live_code, live_mt_code, sizes
+from stiction.drivers.evdev import live_code, live_mt_code, live_shape_code, sizes
 from stiction.drivers.evdev.description import DeviceDescription
 from stiction.drivers.evdev.device import DeviceGone, live_reader_for, new_assembler
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
@@ -350,7 +350,8 @@ def test_the_comparison_catches_a_broken_live_reader(
     cuts = [rng.randrange(len(events)) for _ in range(len(events) // 3)]
     same_both_ways(desc, events, cuts)
     module = live_mt_code if desc.is_multitouch else live_code
-    real, real_shape = module.source, module.shape_body
+    writer = "mt_body" if desc.is_multitouch else "pen_body"
+    real, real_shape = module.source, getattr(live_shape_code, writer)
     text = real(FrameAssembler(desc), SurfaceUnits(desc))
     change = BREAKS.get(how) or SHAPE_BREAKS[how]
     if how in BREAKS:
@@ -369,7 +370,7 @@ def test_the_comparison_catches_a_broken_live_reader(
             return change(body)
         return body
 
-    monkeypatch.setattr(module, "shape_body", broken_shape)
+    monkeypatch.setattr(live_shape_code, writer, broken_shape)
     monkeypatch.setattr(live_code, "BOOKS", {})
     monkeypatch.setattr(live_code, "_FACTORIES", {})
     monkeypatch.setattr(live_code, "_BY_IDENTITY", {})

@@ -33,6 +33,10 @@ the samples and the counters are the assembler's own
 recording cut into reads of one frame and of random sizes, and on random
 streams with keys, SYN_DROPPED and garbage). The reader of a multi-touch
 device is written by live_mt_code.py.
+
+Before its loop, the reader looks the read's shape up (live_shapes.py):
+a read of a shape seen before is taken by a function written for it
+(live_shape_code.py), with no per-event dispatch; the loop takes the rest.
 """
 
 from __future__ import annotations
@@ -44,7 +48,7 @@ from typing import cast
 
 from evdev import ecodes
 
-from stiction.drivers.evdev import live_mt_code
+from stiction.drivers.evdev import live_mt_code, live_shape_code
 from stiction.drivers.evdev.frames import Contact, FrameAssembler
 from stiction.drivers.evdev.live_mt_code import (
     COLLECT,
@@ -53,14 +57,8 @@ from stiction.drivers.evdev.live_mt_code import (
     READ_START,
     TOOK_ONE,
 )
-from stiction.drivers.evdev.live_shapes import (
-    MISS,
-    SYN_REPORT_KEY,
-    UNPACKERS,
-    Book,
-    Shapes,
-    range_lines,
-)
+from stiction.drivers.evdev.live_pen_sample import derived_fields, sample_code
+from stiction.drivers.evdev.live_shapes import MISS, UNPACKERS, Book, Shapes
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample, Tool
@@ -96,177 +94,6 @@ class LiveReader:
         self.shaped = shaped
         #: the generated source, for reading what runs (None: not specialised)
         self.source = source
-
-
-_minus = live_mt_code.minus
-
-
-def _sample_code(
-    units: SurfaceUnits,
-    asm: FrameAssembler,
-    indent: str,
-    stamp: str = "made  # its frame's time once the read went well",
-    tail: tuple[str, ...] = COLLECT,
-) -> str:
-    """Statements that append the PenSample of the contact the cells describe
-    (`last_tool` its tool, `stamp` the frame time or its number in the read):
-    units._sample_function's arithmetic, operation for operation, with the
-    device's numbers written in; `tail` hands the sample on."""
-    x, y = ecodes.ABS_X, ecodes.ABS_Y
-    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
-    x0, x1, y0, y1 = units._bounds
-    rx, ry = units._rx, units._ry
-    xv = f"c{x}" if x in asm._abs else "0"
-    yv = f"c{y}" if y in asm._abs else "0"
-    if asm._has_touch_key:
-        tip = "key_touch"
-    elif asm._has_pressure:
-        tip = f"c{p} > {asm._pressure_min!r}"
-    else:
-        tip = "False"
-    lines = [
-        "s = blank()",
-        f"s.t = {stamp}",
-        # `inside`: the position is on the surface, nothing to clamp (the common case)
-        "if inside:",
-        f"    s.x = {_minus(xv, x0)} / {rx!r} / 1000",
-        f"    s.y = {_minus(yv, y0)} / {ry!r} / 1000",
-        "else:",
-    ]
-    for name, value, lo, hi in (("xs", xv, x0, x1), ("ys", yv, y0, y1)):
-        lines += [
-            f"    {name} = {value}",
-            f"    if {name} < {lo!r}:",
-            f"        {name} = {lo!r}",
-            f"    elif {name} > {hi!r}:",
-            f"        {name} = {hi!r}",
-        ]
-    lines += [
-        f"    s.x = {_minus('xs', x0)} / {rx!r} / 1000",
-        f"    s.y = {_minus('ys', y0)} / {ry!r} / 1000",
-        f"s.tip = {tip}",
-        "s.in_range = True",
-        "s.contact = 0",
-    ]
-    ps = units._pressure
-    if asm._has_pressure and ps is not None:
-        lines += [
-            f"pf = {_minus(f'c{p}', ps.offset)} * {ps.scale!r}",
-            "s.pressure = 0.0 if pf < 0.0 else 1.0 if pf > 1.0 else pf",
-        ]
-    else:
-        lines.append("s.pressure = None")
-    lines.append("s.tool = last_tool")
-    for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
-        if asm._has_tilt and axis is not None:
-            # clamped to the declared range's ends, as units.sample does
-            t_lo, t_hi = axis.lo, axis.hi
-            lines += [
-                f"tv = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}",
-                f"s.{attr} = {t_lo!r} if tv < {t_lo!r} else {t_hi!r} if tv > {t_hi!r} else tv",
-            ]
-        else:
-            lines.append(f"s.{attr} = None")
-    lines += [
-        "s.buttons = buttons",
-        "last_sample = s",
-        *tail,
-    ]
-    return "".join(f"{indent}{line}\n" for line in lines)
-
-
-def _derived(units: SurfaceUnits, asm: FrameAssembler) -> list[tuple[int, str, list[str]]]:
-    """The sample's fields that follow from one axis alone: (code, field, statements
-    that set `v` from the cell `c<code>`, units.sample's arithmetic with the
-    clamping written in). A position is clamped to the surface and a tilt to
-    its range; a value already inside is left as it is, so the statements give
-    the same number as _sample_code's (which skips the clamping while `inside`)."""
-    x, y = ecodes.ABS_X, ecodes.ABS_Y
-    p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
-    x0, x1, y0, y1 = units._bounds
-    out: list[tuple[int, str, list[str]]] = []
-    for code, attr, lo, hi, r in ((x, "x", x0, x1, units._rx), (y, "y", y0, y1, units._ry)):
-        if code in asm._abs:
-            out.append(
-                (
-                    code,
-                    attr,
-                    [
-                        f"v = c{code}",
-                        f"if v < {lo!r}:",
-                        f"    v = {lo!r}",
-                        f"elif v > {hi!r}:",
-                        f"    v = {hi!r}",
-                        f"v = {_minus('v', lo)} / {r!r} / 1000",
-                    ],
-                )
-            )
-    ps = units._pressure
-    if asm._has_pressure and ps is not None:
-        out.append(
-            (
-                p,
-                "pressure",
-                [
-                    f"v = {_minus(f'c{p}', ps.offset)} * {ps.scale!r}",
-                    "v = 0.0 if v < 0.0 else 1.0 if v > 1.0 else v",
-                ],
-            )
-        )
-    for axis, code, attr in ((units._tilt_x, tx, "tilt_x"), (units._tilt_y, ty, "tilt_y")):
-        if asm._has_tilt and axis is not None:
-            t_lo, t_hi = axis.lo, axis.hi
-            out.append(
-                (
-                    code,
-                    attr,
-                    [
-                        f"v = {_minus(f'c{code}', axis.offset)} * {axis.scale!r}",
-                        f"v = {t_lo!r} if v < {t_lo!r} else {t_hi!r} if v > {t_hi!r} else v",
-                    ],
-                )
-            )
-    return out
-
-
-def _shape_sample_code(units: SurfaceUnits, asm: FrameAssembler, changed: set[int]) -> str:
-    """A shape function's sample (indent 0), returned: _sample_code's numbers, with a
-    field of an axis the read did not change taken from the last one made from the
-    same value (`r<code>` the axis value, `f<code>` the field: each a float made
-    once, not per read). The cache is checked against the value itself, so cells
-    changed by the reader's loop or the assembler meanwhile only miss it."""
-    derived = _derived(units, asm)
-    lines = ["s = blank()", "s.t = sec + usec / 1_000_000"]
-    positions = [code for code, attr, _ in derived if attr in ("x", "y")]
-    if len(positions) < 2 or all(code in changed for code in positions):
-        # the position moved (the usual read): _sample_code's, `inside` and all
-        full = _sample_code(units, asm, "", "sec + usec / 1_000_000", ())
-        lines += [
-            line for line in full.splitlines()[2:] if line.startswith(("if inside", " ", "else"))
-        ]
-        derived = [d for d in derived if d[1] not in ("x", "y")]
-    for code, attr, compute in derived:
-        if code in changed:
-            lines += [*compute, f"s.{attr} = v"]
-        else:
-            lines += [
-                f"if c{code} == r{code}:",
-                f"    s.{attr} = f{code}",
-                "else:",
-                *(f"    {line}" for line in compute),
-                f"    s.{attr} = f{code} = v",
-                f"    r{code} = c{code}",
-            ]
-    fields = {attr for _, attr, _ in _derived(units, asm)}
-    full = _sample_code(units, asm, "", "sec + usec / 1_000_000", ())
-    for line in full.splitlines():
-        # the fields no axis alone decides: tip, tool, buttons, constants, Nones
-        if line.startswith("s.") and line.split(" = ")[0][2:] not in {"t", *fields}:
-            if line.split(" = ")[0][2:] in ("x", "y"):
-                continue
-            lines.append(line)
-    lines += ["last_sample = s", "s.__class__ = pen", "return s"]
-    return "".join(f"{line}\n" for line in lines)
 
 
 def _lines(template: str, codes: list[int], indent: str) -> str:
@@ -338,7 +165,7 @@ def _cells(asm: FrameAssembler, units: SurfaceUnits) -> list[str]:
     """The reader's variables a pen's shape function uses (its free variables)."""
     return [
         *(f"c{c}" for c in sorted_codes(asm)),
-        *(f"{kind}{code}" for code, _, _ in _derived(units, asm) for kind in "rf"),
+        *(f"{kind}{code}" for code, _, _ in derived_fields(units, asm) for kind in "rf"),
         "seen",
         "last_tool",
         "last_sample",
@@ -351,63 +178,6 @@ def _cells(asm: FrameAssembler, units: SurfaceUnits) -> list[str]:
     ]
 
 
-def shape_body(
-    asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int]]
-) -> str | None:
-    """A pen's shape function (live_shapes.py): the read `shape` and a final SYN_REPORT.
-
-    The same as the reader's loop over those events, written out: every value
-    tested against its range at once (one out of range is counted, as the loop
-    counts it), the cells assigned, the
-    frame counted and its sample built and returned (None: no contact). Keys,
-    other SYN events and unknown axes are not covered (None)."""
-    ranges = asm._ranges
-    x0, x1, y0, y1 = units._bounds
-    surface = {ecodes.ABS_X: (x0, x1), ecodes.ABS_Y: (y0, y1)}
-    targets: list[str] = []
-    misses = [f"last != {SYN_REPORT_KEY}"]
-    assign: list[str] = []
-    checks: list[tuple[str, int, int, bool]] = []
-    has_position = False
-    for i, (ev_type, code) in enumerate(shape):
-        if ev_type in (0, 1) or (ev_type == 3 and code not in ranges):
-            return None  # SYN, keys, an unknown axis: the loop's
-        if ev_type != 3:
-            targets += ["_", "_"]  # EV_MSC and other types: no contact state
-            continue
-        lo, hi = ranges[code]
-        targets += ["_", f"v{i}"]
-        checks.append((f"v{i}", lo, hi, code in surface))
-        assign.append(f"c{code} = v{i}")
-        if code in surface:
-            has_position = True
-            if surface[code] != (lo, hi):
-                s_lo, s_hi = surface[code]
-                assign += [f"if v{i} < {s_lo!r} or v{i} > {s_hi!r}:", "    inside = False"]
-    if not asm._has_tool_keys and not has_position:
-        misses.append("not seen")  # the contact may end: the loop's
-    lines = [
-        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
-        "if (",
-        *(f"    {m} or" for m in misses[:-1]),
-        f"    {misses[-1]}",
-        "):",
-        "    return miss",
-        *range_lines(checks),
-        *assign,
-    ]
-    if has_position:
-        lines.append("seen = True")
-    lines.append("asm._frames += 1")
-    if asm._has_tool_keys:
-        lines += ["if last_tool is None:", "    return None  # no contact"]
-    else:
-        lines.append("last_tool = default_tool")
-    body = "".join(f"{line}\n" for line in lines)
-    changed = {code for ev_type, code in shape if ev_type == 3}
-    return body + _shape_sample_code(units, asm, changed)
-
-
 def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     """The reader's source for this device (read it to see what runs).
 
@@ -417,8 +187,8 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
     completed included: counters are only added when a read ends well).
     """
     codes = sorted_codes(asm)
-    # a shape function's cache of the fields one axis decides (_shape_sample_code)
-    derived = [code for code, _, _ in _derived(units, asm)]
+    # a shape function's cache of the fields one axis decides (live_shape_code._pen_sample)
+    derived = [code for code, _, _ in derived_fields(units, asm)]
     ranges = asm._ranges
     x, y = ecodes.ABS_X, ecodes.ABS_Y
     p, tx, ty = ecodes.ABS_PRESSURE, ecodes.ABS_TILT_X, ecodes.ABS_TILT_Y
@@ -555,7 +325,7 @@ def samples(reads):
                     # SYN_REPORT: the frame is complete
                     # (single_code.py's rules: the contact follows the keys and axes)
                     made += 1
-{_tool_code(asm)}{_sample_code(units, asm, " " * 20)}                    continue
+{_tool_code(asm)}{sample_code(units, asm, " " * 20)}                    continue
 {KEY_EVENT_AND_READ_END}
             # the read needs the assembler (or ends mid-frame): it takes the whole read
             {state} = snap
@@ -660,10 +430,10 @@ def _compiled(asm: FrameAssembler, units: SurfaceUnits) -> tuple[_Make, str]:
     if made is None:
         if asm.multitouch:
             text = live_mt_code.source(asm, units)
-            writer, cells = live_mt_code.shape_body, live_mt_code.cells(asm)
+            writer, cells = live_shape_code.mt_body, live_mt_code.cells(asm)
         else:
             text = source(asm, units)
-            writer, cells = shape_body, _cells(asm, units)
+            writer, cells = live_shape_code.pen_body, _cells(asm, units)
         namespace: dict[str, object] = {
             "Shapes": Shapes,
             "miss": MISS,

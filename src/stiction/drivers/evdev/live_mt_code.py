@@ -25,20 +25,20 @@ live_code.py: the reader puts back the state it had when the read began
 (`snap`), hands it to the assembler (`store`) and lets it take the whole
 read. The samples are units._sample_function's, operation for operation:
 tilt is None for a slot's contact, the pressure None while a slot has
-never reported one.
+never reported one. A read of a shape seen before is taken by a function
+written for it (live_shape_code.mt_body, live_shapes.py) when no contact
+begins or ends in it.
 """
 
 from __future__ import annotations
 
 import struct
-import textwrap
 from typing import Any
 
 from evdev import ecodes
 
 from stiction.drivers.blank_sample import BlankSample
 from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
-from stiction.drivers.evdev.live_shapes import SYN_REPORT_KEY, range_lines
 from stiction.drivers.evdev.units import SurfaceUnits
 from stiction.drivers.sample import PenSample
 
@@ -552,85 +552,3 @@ def cells(asm: FrameAssembler) -> list[str]:
         "rebuild",
         "keys_changed",
     ]
-
-
-def shape_body(
-    asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int]]
-) -> str | None:
-    """A multi-touch shape function (live_shapes.py): the read `shape` and a final
-    SYN_REPORT, when no contact begins or ends in it.
-
-    The reader's loop over those events, written out (_branches' rules): every
-    slot number tested against the slots (one off: `miss`, nothing changed, the
-    loop takes the read), every kept value and checked axis against its range
-    at once (one off is counted, as the loop counts it), then the values
-    stored in order, the current slot left where the read leaves it, and each
-    contact's sample made as at SYN_REPORT. A frame whose contacts must be
-    made anew (a key or a tracking id came before it: `rebuild`,
-    `keys_changed`) is the loop's (`miss`); tracking ids, keys, other SYN
-    events, unknown axes and what the assembler takes (distance, tool type)
-    are not covered (None)."""
-    ranges = asm._ranges
-    x0, x1, y0, y1 = units._bounds
-    surface = {ecodes.ABS_MT_POSITION_X: (x0, x1), ecodes.ABS_MT_POSITION_Y: (y0, y1)}
-    targets: list[str] = []
-    misses = [f"last != {SYN_REPORT_KEY}", "rebuild", "keys_changed"]
-    stores: list[str] = []
-    checks: list[tuple[str, int, int, bool]] = []
-    base = "base"  # the current slot's offset in vals: from `cur` until a slot event
-    slot = None  # the variable holding the last slot event's value
-    for i, (ev_type, code) in enumerate(shape):
-        if ev_type in (0, 1) or (ev_type == 3 and code not in ranges):
-            return None  # SYN, keys, an unknown axis: the loop's
-        if ev_type != 3 or (code < ABS_MT_SLOT):
-            targets += ["_", "_"]  # EV_MSC, other types, legacy axes: nothing kept
-            continue
-        if code == ABS_MT_TRACKING_ID or code in _HANDED_OVER:
-            return None  # contacts may begin, end or change: the loop's
-        v = f"v{i}"
-        targets += ["_", v]
-        if code == ABS_MT_SLOT:
-            misses.append(f"{v} < 0 or {v} >= {asm.num_slots}")
-            slot = v
-            base = f"b{i}"
-            stores.append(f"{base} = 3 * {v}")
-            continue
-        lo, hi = ranges[code]
-        checks.append((v, lo, hi, code in surface and surface[code] == (lo, hi) and code in _KEPT))
-        if code in _KEPT:
-            if base == "base" and "base = 3 * cur" not in stores:
-                stores.insert(0, "base = 3 * cur")
-            offset = f" + {_KEPT[code]}" if _KEPT[code] else ""
-            stores.append(f"vals[{base}{offset}] = {v}")
-            if code in surface and surface[code] != (lo, hi):
-                s_lo, s_hi = surface[code]
-                stores += [f"if {v} < {s_lo!r} or {v} > {s_hi!r}:", "    inside = False"]
-    if slot is not None:
-        stores.append(f"cur = {slot}")
-    each = _sample_code(
-        asm, units, "t", " " * 24 + "s.__class__ = pen\n" + " " * 24 + "out.append(s)\n"
-    )
-    # one finger (the usual read): its sample alone, no list and no loop
-    _, _, body = each.partition("\n")  # the loop header off
-    one = textwrap.dedent(body).replace("out.append(s)\n", "")
-    samples = (
-        "if len(active) == 1:\n"
-        "    ((b, cid, tool, tip, btn, k),) = active\n"
-        + textwrap.indent(one, "    ")
-        + "    return s\n"
-        + "out = []\n"
-        + textwrap.dedent(each)
-    )
-    lines = [
-        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
-        "if (",
-        *(f"    {m} or" for m in misses[:-1]),
-        f"    {misses[-1]}",
-        "):",
-        "    return miss",
-        *range_lines(checks),
-        *stores,
-        "asm._frames += 1",
-        "t = sec + usec / 1_000_000",
-    ]
-    return "".join(f"{line}\n" for line in lines) + samples + "return out\n"
