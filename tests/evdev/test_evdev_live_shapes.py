@@ -13,10 +13,13 @@ import random
 
 import pytest
 from evdev import ecodes as e
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from test_evdev_fast_paths import DESCS
 from test_evdev_live import SHAPED, Event, same_both_ways
 
 from stiction.drivers.evdev import live_code, live_shapes
+from stiction.drivers.evdev.frames import INPUT_EVENT
 
 
 def _many_shapes(n: int, seed: int) -> tuple[list[Event], list[int]]:
@@ -94,3 +97,38 @@ def test_a_reader_remembers_a_bounded_number_of_keys(monkeypatch: pytest.MonkeyP
     assert len(asked) == 11 * len(known)
     assert all(len(b.codes) <= 10 and b.compiled == 0 for b in live_code.BOOKS.values())
     assert SHAPED[0] == 0
+
+
+def test_a_shape_key_tells_every_byte_of_type_and_code() -> None:
+    """A type or code differing only in its high byte is another shape: an event of
+    type 0x103 is no EV_ABS (the assembler ignores the unknown type), code 0x100 of
+    EV_ABS no ABS_X (an unknown axis), whatever the low bytes say."""
+    x, y = e.ABS_X, e.ABS_Y
+    events: list[Event] = [(0, 0, e.EV_KEY, e.BTN_TOOL_PEN, 1), (0, 0, e.EV_SYN, e.SYN_REPORT, 0)]
+    cuts = [2]
+    for i in range(30):  # the same frame again and again: its shape is compiled
+        events += [(1, i, e.EV_ABS, x, 10 + i), (1, i, e.EV_ABS, y, 20 + i)]
+        if i % 3 == 1:
+            events.append((1, i, 0x100 | e.EV_ABS, x, 99))  # not EV_ABS
+        elif i % 3 == 2:
+            events.append((1, i, e.EV_ABS, 0x100 | x, 99))  # not ABS_X
+        events.append((1, i, e.EV_SYN, e.SYN_REPORT, 0))
+        cuts.append(len(events))
+    assert same_both_ways(DESCS["pen"], events, cuts) >= 30
+    assert SHAPED[0] >= 20  # two of the three shapes are the shape path's
+
+
+@settings(max_examples=60, deadline=None)
+@given(data=st.binary(min_size=24, max_size=24 * 60), cuts=st.lists(st.integers(0, 60)))
+def test_random_bytes_read_as_the_assembler_reads_them(data: bytes, cuts: list[int]) -> None:
+    """Whole events of random bytes (types and codes with high bytes, values anywhere),
+    with SYN_REPORTs put in so that frames end: the same samples and counters."""
+    whole = data[: len(data) - len(data) % INPUT_EVENT.size]
+    events: list[Event] = []
+    for i, ev in enumerate(INPUT_EVENT.iter_unpack(whole)):
+        events.append(ev)
+        if i % 4 == 3:
+            events.append((ev[0], ev[1], e.EV_SYN, e.SYN_REPORT, 0))
+    if events:
+        same_both_ways(DESCS["pen"], events, cuts)
+        same_both_ways(DESCS["touchpad"], events, cuts)
