@@ -6,7 +6,11 @@ Usage: python tools/ablate_evdev_reader.py [--repeat N] [--data DIR]
 
 Each variant is the reader's generated source (drivers/evdev/live_code.py,
 live_mt_code.py) with one part removed, so its time is an upper bound on what
-that part costs; the variants are not correct readers (none is kept):
+that part costs; the variants are not correct readers (none is kept). The
+parts are the per-event loop's, so every reader here is made without its
+shape functions (`shapes=False`, live_shapes.py): with them, the loop takes
+only the reads no shape function covers (3% of the recordings' one-frame
+reads), and the variants would time the shape functions instead:
 
 - same: the reader unchanged, compiled again (the noise floor: it should
   match `reader` within a fraction of a per cent);
@@ -59,11 +63,21 @@ def main(argv: list[str]) -> int:
     parser.add_argument("--data", type=Path, default=ROOT.parent / "shared" / "data" / "evdev")
     opts = parser.parse_args(argv)
 
-    from stiction.drivers.evdev import live_code, live_mt_code, sizes
-    from stiction.drivers.evdev.device import live_reader_for
+    import functools
+
+    from stiction.drivers.evdev import columns, live_code, live_mt_code, sizes
+    from stiction.drivers.evdev.device import DeviceGone, read_samples
     from stiction.drivers.evdev.frames import INPUT_EVENT, FrameAssembler
     from stiction.drivers.evdev.recording import load
     from stiction.drivers.evdev.units import SurfaceUnits
+
+    def loop_reader(asm: FrameAssembler, units: SurfaceUnits) -> live_code.LiveReader:
+        """The live reader without shape functions: every read walked by its loop."""
+        fallback = functools.partial(read_samples, asm, units)
+        long_read = INPUT_EVENT.size * columns.MIN_EVENTS
+        return live_code.live_reader(
+            asm, units, fallback, fallback, DeviceGone, long_read, shapes=False
+        )
 
     single, multi = live_code.source, live_mt_code.source
     devices = []
@@ -97,14 +111,14 @@ def main(argv: list[str]) -> int:
             _, desc, units, reads = next(d for d in devices if d[0] == name)
             live_code._compiled = lambda a, u, m=made: m  # type: ignore[assignment,misc]
             live_code._BY_IDENTITY.clear()  # else the first variant's reader is reused
-            readers = [live_reader_for(FrameAssembler(desc), units) for _ in range(10)]
+            readers = [loop_reader(FrameAssembler(desc), units) for _ in range(10)]
             t0 = time.process_time()
             for r in readers:
                 for _ in r.samples(reads):
                     pass
             whole = (time.process_time() - t0) / 10
             live_code._BY_IDENTITY.clear()
-            readers = [live_reader_for(FrameAssembler(desc), units) for _ in range(10)]
+            readers = [loop_reader(FrameAssembler(desc), units) for _ in range(10)]
             t0 = time.process_time()
             for r in readers:
                 for _ in r.samples(()):
