@@ -62,6 +62,7 @@ from stiction.drivers.hid import families_uclogic as _uclogic
 from stiction.drivers.hid import families_veikk as _veikk
 from stiction.drivers.hid import families_waltop as _waltop
 from stiction.drivers.hid import families_xppen as _xppen
+from stiction.drivers.hid import pen as _pen
 from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
 
 __all__ = [
@@ -69,12 +70,14 @@ __all__ = [
     "NORMAL_ID",
     "NO_IN_RANGE",
     "OTD_PARSERS",
+    "FamilyFixup",
     "Geometry",
     "PenState",
     "Reader",
     "descriptor",
     "family_for",
     "fixup",
+    "normal_values",
     "normalise",
 ]
 
@@ -352,15 +355,73 @@ def normalise(state: PenState, geom: Geometry) -> bytes:
     )
 
 
-def fixup(family: str, geom: Geometry) -> Callable[[bytes], bytes | None]:
+def normal_values(geom: Geometry) -> dict[int, str]:
+    """What `normalise` writes into each field, as Python expressions over a PenState.
+
+    Each PenState field is named ``pen_`` + its name (``pen_x``, ``pen_tip``).
+
+    Keyed by the usage of the field in the generated descriptor. The
+    generated feed (report_code.compile_feed, ReportStream) evaluates these
+    on the family reader's PenState instead of packing a report and decoding
+    it again: what the bytes would hold, without the bytes. Flags are left
+    as bools (the generated code compares each with 0, as it does the
+    decoded bits), the numbers clamped to the ranges `normalise` clamps to.
+    `normalise` stays the readable statement and the oracle: the tests run
+    both over every family (tests/hid/test_hid_family_path.py).
+    """
+
+    def clamp(field: str, top: int) -> str:
+        # min(max(v, 0), top) without the two calls
+        return f"(0 if pen_{field} < 0 else {top} if pen_{field} > {top} else pen_{field})"
+
+    return {
+        _pen.TIP_SWITCH: "pen_tip",
+        _pen.BARREL: "pen_barrel",
+        _pen.SECONDARY_BARREL: "pen_barrel2",
+        _pen.ERASER: "(pen_eraser and pen_tip)",
+        _pen.IN_RANGE: "pen_in_range",
+        _pen.INVERT: "pen_eraser",
+        _pen.GD_X: clamp("x", geom.max_x),
+        _pen.GD_Y: clamp("y", geom.max_y),
+        _pen.TIP_PRESSURE: clamp("pressure", min(geom.max_pressure, 0xFFFF)),
+    }
+
+
+class FamilyFixup:
+    """A family's fix-up: a ReportStream fix-up that also hands over its reader.
+
+    Called, it is the bytes path -- raw report -> `PenState` -> `normalise`
+    -> the normalised report, None for other reports -- which the stream's
+    reference path (`ReportStream.use_tracker`) and the tests' oracle run.
+    ReportStream's generated feed calls `read` instead and takes the values
+    `normal_values` names straight from the PenState (see report_code.py).
+    """
+
+    __slots__ = ("family", "geometry", "read")
+
+    fields = PenState._fields
+    """What a reader's PenState holds, in order (`normal_values` names them ``pen_`` + field)."""
+    report_id = NORMAL_ID
+    """The ID of the normalised report, the one the generated descriptor has."""
+
+    def __init__(self, family: str, geom: Geometry) -> None:
+        self.family = family
+        self.geometry = geom
+        self.read: Reader = FAMILIES[family](geom)
+        """This stream's reader (some families keep state between reports)."""
+
+    def __call__(self, data: bytes) -> bytes | None:
+        state = self.read(data)
+        return None if state is None else normalise(state, self.geometry)
+
+    def values(self) -> dict[int, str]:
+        """`normal_values` of this geometry: what the generated feed reads from a PenState."""
+        return normal_values(self.geometry)
+
+
+def fixup(family: str, geom: Geometry) -> FamilyFixup:
     """A ReportStream fix-up: raw report -> normalised report, None for other reports."""
-    read = FAMILIES[family](geom)
-
-    def fix(data: bytes) -> bytes | None:
-        state = read(data)
-        return None if state is None else normalise(state, geom)
-
-    return fix
+    return FamilyFixup(family, geom)
 
 
 def _item(prefix: int, value: int) -> bytes:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,11 +24,17 @@ class Geometry:
     source: str = ""
 
 
-@dataclass(frozen=True, slots=True)
-class PenState:
+class PenState(NamedTuple):
     """One pen report, read. Tilt (degrees, where the protocol has it) is read for
     completeness of the layout but not forwarded: the normalised report has no tilt,
-    as the friction model does not use it."""
+    as the friction model does not use it.
+
+    A tuple, not a frozen dataclass: a family reader builds one per report,
+    on the daemon's path, and a frozen dataclass's ``__init__`` stores each of
+    its ten fields through ``object.__setattr__`` (1.9 us a report for the
+    UGEE reader, against about 1 us as a tuple; docs/devices.md, Speed).
+    Readers pass every field by position where they run per report: keywords
+    cost the generated ``__new__`` more."""
 
     x: int
     y: int

@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
+from stiction.drivers.hid.families import NO_IN_RANGE, FamilyFixup
 from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
 from stiction.drivers.hid.report_code import ReportFn, compile_feed, compile_report
 from stiction.drivers.sample import PenSample
@@ -50,6 +51,9 @@ class ReportStream:
 
         `fixup` rewrites each raw report before decoding (vendor formats the
         descriptor cannot express); returning None drops the report as ignored.
+        A vendor family's (families.FamilyFixup, also made here from an
+        `entry` naming a family) is not called on the generated path: its
+        reader's values go straight into the contact code (report_code.py).
         `proximity_timeout`: for tablets that report no in-range state, the
         pen counts as gone this many seconds after its last report (see `idle`);
         fixed here (the generated feed keeps report times only when it is set).
@@ -66,13 +70,11 @@ class ReportStream:
 
             fixup = FIXUPS[entry.report_fixup]
         if fixup is None and entry is not None and entry.family and entry.geometry:
-            from stiction.drivers.hid.families import fixup as family_fixup
-
-            fixup = family_fixup(entry.family, entry.geometry)
-            from stiction.drivers.hid.families import NO_IN_RANGE
+            fixup = FamilyFixup(entry.family, entry.geometry)
+        if isinstance(fixup, FamilyFixup) and fixup.family in NO_IN_RANGE:
             from stiction.drivers.hid.uclogic import PROXIMITY_TIMEOUT_S
 
-            if proximity_timeout is None and entry.family in NO_IN_RANGE:
+            if proximity_timeout is None:
                 proximity_timeout = PROXIMITY_TIMEOUT_S  # no in-range bit: see `idle`
         self.fixup = fixup
         self.proximity_timeout = proximity_timeout
@@ -122,6 +124,7 @@ class ReportStream:
             fn = compile_report(m, active, last, self._counts)
             if fn is not None:
                 self._compiled[rid] = (fn, m.decoder.byte_size)
+        family = self.fixup if isinstance(self.fixup, FamilyFixup) else None
         self.feed: ReportFn = compile_feed(
             self,
             self.mappings,
@@ -132,6 +135,7 @@ class ReportStream:
             self._counts,
             frozenset(self.known_ids - set(self.mappings)),
             timed=proximity_timeout is not None,
+            family=family,
         )
         """The samples of one report received at `t`; a bad report is counted, never raised.
 
