@@ -63,7 +63,16 @@ from stiction.drivers.hid import families_veikk as _veikk
 from stiction.drivers.hid import families_waltop as _waltop
 from stiction.drivers.hid import families_xppen as _xppen
 from stiction.drivers.hid import pen as _pen
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+from stiction.drivers.hid.family_types import (
+    Geometry,
+    PenState,
+    Reader,
+    new_state,
+    s8,
+    u16le,
+    u16x2,
+    u16x3,
+)
 
 __all__ = [
     "FAMILIES",
@@ -92,17 +101,26 @@ touch), so a hovering eraser sets only Invert, as Microsoft's pen protocol
 has it and pen.py reads it."""
 
 
+# The readers below run once per report on the daemon's path: they build
+# each PenState from all its fields through `new_state`, read 16-bit values
+# with struct and test flags as ``b & bit != 0`` (a bool without a call);
+# docs/devices.md, Speed, has what each costs.
+
+
 def _penpartner(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
-        if len(d) < 7 or d[0] not in (1, 2):
+        if len(d) < 7 or (rid := d[0]) not in (1, 2):
             return None
-        x, y, p = u16le(d, 1), u16le(d, 3), s8(d[6])
-        eraser = bool(d[5] & 0x20)
-        if d[0] == 1:
-            if not d[5] & 0x80:
-                return PenState(x, y, 0, False, False)
-            return PenState(x, y, p + 127, p > -127, True, bool(d[5] & 0x40), eraser=eraser)
-        return PenState(x, y, p + 127, p > -80 and not eraser, True, bool(d[5] & 0x40))
+        x, y = u16x2(d, 1)
+        p, b = s8(d[6]), d[5]
+        if rid == 1:
+            if not b & 0x80:
+                return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return new_state(
+                PenState, (x, y, p + 127, p > -127, True, b & 0x40 != 0, False, b & 0x20 != 0, 0, 0)
+            )
+        tip = p > -80 and not b & 0x20
+        return new_state(PenState, (x, y, p + 127, tip, True, b & 0x40 != 0, False, False, 0, 0))
 
     return read
 
@@ -111,21 +129,16 @@ def _graphire(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        tool = (d[1] >> 5) & 3
-        x, y = u16le(d, 2), u16le(d, 4)
-        if not d[1] & 0x80:
-            return PenState(x, y, 0, False, False)
+        b = d[1]
+        tool = (b >> 5) & 3
+        x, y = u16x2(d, 2)
+        if not b & 0x80:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
         if tool >= 2:  # a mouse on the tablet: not a pen
             return None
-        return PenState(
-            x,
-            y,
-            d[6] | ((d[7] & 0x03) << 8),
-            bool(d[1] & 0x01),
-            True,
-            bool(d[1] & 0x02),
-            bool(d[1] & 0x04),
-            tool == 1,
+        p = d[6] | ((d[7] & 0x03) << 8)
+        return new_state(
+            PenState, (x, y, p, b & 0x01 != 0, True, b & 0x02 != 0, b & 0x04 != 0, tool == 1, 0, 0)
         )
 
     return read
@@ -137,20 +150,19 @@ def _bpt(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        in_range, valid, buttons = bool(d[1] & 0x80), bool(d[1] & 0x40), bool(d[1] & 0x20)
-        if valid:
-            last[0], last[1] = u16le(d, 2), u16le(d, 4)
-        if not in_range:
-            return PenState(last[0], last[1], 0, False, False)
-        return PenState(
-            last[0],
-            last[1],
-            u16le(d, 6) if buttons else 0,
-            buttons and bool(d[1] & 0x01),
-            True,
-            buttons and bool(d[1] & 0x02),
-            buttons and bool(d[1] & 0x04),
-            bool(d[1] & 0x08),
+        b = d[1]
+        if b & 0x40:  # position valid
+            last[0], last[1] = u16x2(d, 2)
+        if not b & 0x80:  # not in range
+            return new_state(
+                PenState, (last[0], last[1], 0, False, False, False, False, False, 0, 0)
+            )
+        x, y, eraser = last[0], last[1], b & 0x08 != 0
+        if not b & 0x20:  # buttons (and pressure) not valid
+            return new_state(PenState, (x, y, 0, False, True, False, False, eraser, 0, 0))
+        p = u16le(d, 6)
+        return new_state(
+            PenState, (x, y, p, b & 0x01 != 0, True, b & 0x02 != 0, b & 0x04 != 0, eraser, 0, 0)
         )
 
     return read
@@ -167,24 +179,22 @@ def _intuos(geom: Geometry, half: bool = False) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 10 or d[0] != 2:
             return None
-        if d[1] & 0xFC == 0xC0:  # enter proximity: bytes 2-3 hold the tool id
+        b = d[1]
+        if b & 0xFC == 0xC0:  # enter proximity: bytes 2-3 hold the tool id
             tool_id = ((d[2] << 4) | (d[3] >> 4)) & 0xFFF
-            state["eraser"] = bool(
-                tool_id & 0x008
-            )  # erasers are the ids with bit 3 set (0x82a, 0x85a, ...)
+            # erasers are the ids with bit 3 set (0x82a, 0x85a, ...)
+            state["eraser"] = tool_id & 0x008 != 0
             return None
-        if d[1] & 0xFE == 0x80:  # exit proximity
+        if b & 0xFE == 0x80:  # exit proximity
             state["eraser"] = None
-            return PenState(0, 0, 0, False, False)
-        kind = (d[1] >> 1) & 0x0F
-        if state["eraser"] is None or kind > 3:
+            return new_state(PenState, (0, 0, 0, False, False, False, False, False, 0, 0))
+        eraser = state["eraser"]
+        if eraser is None or (b >> 1) & 0x0F > 3:
             return None  # no tool in range yet, or a mouse/airbrush packet
         x = ((d[2] << 9) | (d[3] << 1) | ((d[9] >> 1) & 1)) >> coord_shift
         y = ((d[4] << 9) | (d[5] << 1) | (d[9] & 1)) >> coord_shift
-        p = ((d[6] << 3) | ((d[7] & 0xC0) >> 5) | (d[1] & 1)) >> pressure_shift
-        return PenState(
-            x, y, p, p > 10, True, bool(d[1] & 2), bool(d[1] & 4), bool(state["eraser"])
-        )
+        p = ((d[6] << 3) | ((d[7] & 0xC0) >> 5) | (b & 1)) >> pressure_shift
+        return new_state(PenState, (x, y, p, p > 10, True, b & 2 != 0, b & 4 != 0, eraser, 0, 0))
 
     return read
 
@@ -193,12 +203,13 @@ def _ptu(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        eraser = bool(d[1] & 0x04)
-        x, y, p = u16le(d, 2), u16le(d, 4), u16le(d, 6)
-        if not d[1] & 0x20:
-            return PenState(x, y, 0, False, False)
-        tip = bool(d[1] & (0x08 if eraser else 0x01))
-        return PenState(x, y, p, tip, True, bool(d[1] & 0x02), bool(d[1] & 0x10), eraser)
+        b = d[1]
+        x, y, p = u16x3(d, 2)
+        if not b & 0x20:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        eraser = b & 0x04 != 0
+        tip = b & (0x08 if eraser else 0x01) != 0
+        return new_state(PenState, (x, y, p, tip, True, b & 0x02 != 0, b & 0x10 != 0, eraser, 0, 0))
 
     return read
 
@@ -216,7 +227,7 @@ def _pl(geom: Geometry) -> Reader:
         y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
         if not d[1] & 0x40:
             tool["eraser"] = None
-            return PenState(x, y, 0, False, False)
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
         if tool["eraser"] is None:
             tool["eraser"] = bool(d[0] & 0x10 or d[4] & 0x20)
         elif tool["eraser"] and not d[4] & 0x20:
@@ -226,8 +237,9 @@ def _pl(geom: Geometry) -> Reader:
         if geom.max_pressure > 255:
             p = (p << 1) | ((d[4] >> 6) & 1)
         barrel2 = not eraser and bool(d[4] & 0x20)
-        return PenState(
-            x, y, p + centre, bool(d[4] & 0x08), True, bool(d[4] & 0x10), barrel2, eraser
+        return new_state(
+            PenState,
+            (x, y, p + centre, d[4] & 0x08 != 0, True, d[4] & 0x10 != 0, barrel2, eraser, 0, 0),
         )
 
     return read

@@ -7,9 +7,10 @@ can share them without importing one another.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import NamedTuple
+from typing import NamedTuple, cast
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,9 +33,8 @@ class PenState(NamedTuple):
     A tuple, not a frozen dataclass: a family reader builds one per report,
     on the daemon's path, and a frozen dataclass's ``__init__`` stores each of
     its ten fields through ``object.__setattr__`` (1.9 us a report for the
-    UGEE reader, against about 1 us as a tuple; docs/devices.md, Speed).
-    Readers pass every field by position where they run per report: keywords
-    cost the generated ``__new__`` more."""
+    UGEE reader, against 0.5 us as a tuple built by `new_state`; docs/devices.md,
+    Speed). Tests and other callers build it as usual, fields by keyword."""
 
     x: int
     y: int
@@ -50,6 +50,24 @@ class PenState(NamedTuple):
 
 Reader = Callable[[bytes], PenState | None]
 """One raw report -> the pen it describes, or None for a report that is not the pen's."""
+
+Fields = tuple[int, int, int, bool, bool, bool, bool, bool, int, int]
+"""A PenState's ten fields in order."""
+
+new_state = cast(Callable[[type[PenState], Fields], PenState], tuple.__new__)
+"""``new_state(PenState, fields)``: a PenState from all ten fields in one tuple.
+
+What the readers build per report. ``tuple.__new__`` is C; the NamedTuple's
+own ``__new__`` is a Python function taking the fields as arguments (with
+defaults), 0.2 us more a report (a functools.partial binding the class
+costs as much again). The fields' types are checked by mypy through `Fields`."""
+
+u16x2 = struct.Struct("<2H").unpack_from
+"""Two little-endian 16-bit values at an offset (X and Y, most layouts)."""
+u16x3 = struct.Struct("<3H").unpack_from
+"""Three little-endian 16-bit values at an offset (X, Y and pressure, most layouts)."""
+s8x2 = struct.Struct("<2b").unpack_from
+"""Two signed bytes at an offset (tilt X and Y)."""
 
 
 def u16le(d: bytes, i: int) -> int:
