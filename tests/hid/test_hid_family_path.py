@@ -4,7 +4,7 @@ ReportStream's generated feed takes a family reader's PenState straight into
 the contact code (families.normal_values, report_code._family_lines). The
 oracle is the path it replaced: the family's fix-up packs the PenState into
 the normalised report (`families.normalise`) and that report is decoded
-again, either by the generated per-report code (`ReportStream._feed`) or by
+again, either by the generated feed (`ReportStream.use_bytes_path`) or by
 ContactTracker (`ReportStream.use_tracker`, the readable statement). All
 three must give the same samples (field for field, floats bit for bit),
 the same counters and the same tracker state after every report, on the
@@ -45,7 +45,7 @@ def _streams(
     direct, generated, tracker = (
         ReportStream(desc, family, size_m, None, fixup(family, geom)) for _ in range(3)
     )
-    generated.feed = generated._feed  # fix-up to bytes, then the per-report generated code
+    generated.use_bytes_path()  # fix-up to bytes, then the generated feed decodes them
     tracker.use_tracker()  # fix-up to bytes, then ContactTracker
     assert "pen = read(d)" in getattr(direct.feed, "source", ""), "the direct path is not used"
     return direct, generated, tracker
@@ -114,7 +114,7 @@ def test_a_recording_through_its_catalogue_family(name: str, hid_data: Path) -> 
     desc = parse_descriptor(rec.descriptor)
     direct, generated, tracker = (ReportStream(desc, name, (0.2, 0.1), entry) for _ in range(3))
     assert "pen = read(d)" in getattr(direct.feed, "source", "")
-    generated.feed = generated._feed
+    generated.use_bytes_path()
     tracker.use_tracker()
     made = _run((direct, generated, tracker), [(ev.t, ev.data) for ev in rec.events])
     # deco-03 was recorded in its firmware mode: the 8-byte family reads none of it

@@ -124,26 +124,17 @@ class ReportStream:
             fn = compile_report(m, active, last, self._counts)
             if fn is not None:
                 self._compiled[rid] = (fn, m.decoder.byte_size)
-        family = self.fixup if isinstance(self.fixup, FamilyFixup) else None
-        self.feed: ReportFn = compile_feed(
-            self,
-            self.mappings,
-            self.numbered,
-            self.fixup,
-            active,
-            last,
-            self._counts,
-            frozenset(self.known_ids - set(self.mappings)),
-            timed=proximity_timeout is not None,
-            family=family,
-        )
+        self.family = self.fixup if isinstance(self.fixup, FamilyFixup) else None
+        """The vendor family whose reader the generated feed calls, None for other devices."""
+        self.feed: ReportFn = self._compile(direct=True)
         """The samples of one report received at `t`; a bad report is counted, never raised.
 
         One generated function per device (report_code.compile_feed): the
         counting, the fix-up and each contact report ID's path (ContactTracker's
-        work with the layout's answers written in) in one call. Everything
-        else, and finger reports with a Contact Count, goes through `_rest`
-        and ContactTracker; `_feed` is the same as a method.
+        work with the layout's answers written in) in one call; for a vendor
+        family, its reader's values without a normalised report in between.
+        Everything else, and finger reports with a Contact Count, goes
+        through `_rest` and ContactTracker; `_feed` is the same as a method.
         """
         # The surface is that of the device's kind: a node with a pen and a
         # touch screen is a pen (device_kind), so its size is the pen's, even
@@ -175,6 +166,29 @@ class ReportStream:
         if self._counts[what] <= self.LOG_FIRST:
             log.warning("%s: %s (skipped)", self.device, message)
         return []
+
+    def _compile(self, direct: bool) -> ReportFn:
+        return compile_feed(
+            self,
+            self.mappings,
+            self.numbered,
+            self.fixup,
+            self.tracker.active,
+            self.tracker.last,
+            self._counts,
+            frozenset(self.known_ids - set(self.mappings)),
+            timed=self.proximity_timeout is not None,
+            family=self.family if direct else None,
+        )
+
+    def use_bytes_path(self) -> None:
+        """A vendor family's reports through its fix-up's normalised bytes, then the generated feed.
+
+        The family path before the generated feed took the reader's values
+        directly: the oracle of tests/hid/test_hid_family_path.py and the
+        comparison `stiction bench hid` prints. Other devices keep their feed.
+        """
+        self.feed = self._compile(direct=False)
 
     def use_tracker(self) -> None:
         """Send every report through ContactTracker, as before report_code.py.
