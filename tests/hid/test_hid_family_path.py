@@ -107,7 +107,12 @@ def test_the_recordings_that_go_through_a_family_are_there(hid_data: Path) -> No
 
 @pytest.mark.parametrize("name", ["ugee-m708-v2", "wacom-penpartner", "xp-pen-deco-03"])
 def test_a_recording_through_its_catalogue_family(name: str, hid_data: Path) -> None:
-    """The daemon's own streams, built from the catalogue entry as ReportStream builds them."""
+    """Streams built from the entry of the recording's id, as ReportStream builds them.
+
+    The daemon looks the entry up with the descriptor too, and keeps the
+    xp-pen families off the firmware interfaces these two XP-Pen recordings
+    come from; their reports are read by the family all the same (the UGEE's
+    have the XP-Pen layout's bits, the Deco 03's are refused)."""
     rec = load_recording(hid_data / f"{name}.hid")
     entry = lookup(rec.vid, rec.pid)
     assert entry is not None and entry.family and entry.geometry
