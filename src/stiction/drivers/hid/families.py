@@ -7,7 +7,11 @@ function that reads one raw report into a `PenState` (or says it is not a
 pen report), and one generated descriptor describes the normalised report
 that the rest of the HID path (decoder, pen mapping, ReportStream) already
 understands. A family therefore needs no decoder of its own: it is a fix-up
-plus a descriptor, like the UC-Logic modes in uclogic.py.
+plus a descriptor, like the UC-Logic modes in uclogic.py. On the daemon's
+path the fix-up's bytes are skipped: ReportStream's generated feed calls the
+reader and takes the normalised report's values from the PenState
+(`normal_values`, `FamilyFixup`); `normalise` and the bytes stay the
+statement that path is tested against.
 
 This module holds the Wacom families, the registry (`FAMILIES`, and
 `OTD_PARSERS` for the catalogue generator) and the normalised report. The

@@ -21,6 +21,12 @@ tests/hid/test_hid_report_code.py runs them against ContactTracker over
 every recording), and update the tracker's `active` and `last` the same
 way. Layouts they do not cover -- finger reports with a Contact Count,
 whose contacts follow across reports -- stay with ContactTracker.
+
+A vendor report family (families.py) has its reports read by a Python
+reader into a PenState that is then packed into a normalised report; for
+those `compile_feed` calls the reader and sets the values the contacts read
+from the PenState itself (`_family_lines`), so the same contact code runs
+without the bytes in between.
 """
 
 from __future__ import annotations
