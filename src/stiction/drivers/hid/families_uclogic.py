@@ -37,13 +37,14 @@ layouts are taken, and checked against the DIGImend/tablets dumps in
 
 from __future__ import annotations
 
+import struct
+
 from stiction.drivers.hid.family_types import (
     Geometry,
     PenState,
     Reader,
     new_state,
     s8,
-    s8x2,
     u16le,
     u16x3,
 )
@@ -58,6 +59,8 @@ _UGEE_IN_RANGE = 0x20
 _UGEE_ERASER = 0x08
 _UGEE_FRAME = 0xF0
 _UGEE_IDS = (UGEE_VENDOR_ID, UGEE_FIRMWARE_ID)
+_XYPT = struct.Struct("<3H2b").unpack_from
+"""UGEE v2 bytes 2-9: X, Y, pressure (16-bit), tilt X and Y (signed bytes)."""
 
 
 def _v1(d: bytes) -> PenState | None:
@@ -112,14 +115,16 @@ def xp_pen(geom: Geometry) -> Reader:
     wide = geom.max_x > 0xFFFF
 
     def read(d: bytes) -> PenState | None:
-        if len(d) < 8 or d[0] not in _UGEE_IDS or (b := d[1]) >= _UGEE_FRAME:
+        if (n := len(d)) < 8 or d[0] not in _UGEE_IDS or (b := d[1]) >= _UGEE_FRAME:
             return None
-        x, y, p = u16x3(d, 2)
-        if wide and len(d) >= 12:
+        if n >= 10:
+            x, y, p, tx, ty = _XYPT(d, 2)  # one call for X, Y, pressure and tilt
+        else:
+            (x, y, p), tx, ty = u16x3(d, 2), 0, 0
+        if wide and n >= 12:
             x |= u16le(d, 10) << 16
         if not b & _UGEE_IN_RANGE:
             return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
-        tx, ty = s8x2(d, 8) if len(d) >= 10 else (0, 0)
         tip, barrel, barrel2, eraser = b & 1 != 0, b & 2 != 0, b & 4 != 0, b & _UGEE_ERASER != 0
         return new_state(
             PenState, (x, y, p & pressure_mask, tip, True, barrel, barrel2, eraser, tx, ty)

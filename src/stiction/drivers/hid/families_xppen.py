@@ -90,9 +90,10 @@ public dumps and other sources named with each:
 from __future__ import annotations
 
 import dataclasses
+import struct
 
 from stiction.drivers.hid import families_uclogic as _uclogic
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, s8x2, u16x3
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16x3
 
 VENDOR_ID = 0x02
 FIRMWARE_V1_ID = 0x07
@@ -108,6 +109,8 @@ _GONE = 0x40  # xp-pen-8: byte 1 bit 6, set while the pen is away
 _PAD = 0x10  # byte 1 bit 4: a pad report (OpenTabletDriver's XP_PenReportParser)
 _V1_FRAME = 0x60  # bits 5 and 6 together: a UC-Logic v1 frame report (0xe0)
 _ERASER = 0x08
+_GEN2 = struct.Struct("<3H2b2B").unpack_from
+"""Gen-2 bytes 2-11: X, Y, pressure (low 16 bits), tilt X and Y, X's and Y's bits 16-23."""
 LOW13 = 0x1FFF
 """The pressure bits below the offset (8192) these tablets add."""
 LOW14 = 0x3FFF
@@ -120,9 +123,9 @@ def xp_pen_gen2(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < GEN2_LENGTH or d[0] != VENDOR_ID:
             return None
-        x, y, p = u16x3(d, 2)
-        x |= d[10] << 16
-        y |= d[11] << 16
+        x, y, p, tx, ty, x_high, y_high = _GEN2(d, 2)
+        x |= x_high << 16
+        y |= y_high << 16
         b = d[1]
         if b == _AWAY:
             return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
@@ -130,7 +133,6 @@ def xp_pen_gen2(geom: Geometry) -> Reader:
             return None  # pad buttons, dials, battery
         p = (p & LOW14) | ((d[13] & 0x01) << 13)
         tip, barrel, barrel2, eraser = b & 1 != 0, b & 2 != 0, b & 4 != 0, b & _ERASER != 0
-        tx, ty = s8x2(d, 8)
         return new_state(PenState, (x, y, p, tip, True, barrel, barrel2, eraser, tx, ty))
 
     return read
