@@ -32,9 +32,9 @@ class PenState(NamedTuple):
 
     A tuple, not a frozen dataclass: a family reader builds one per report,
     on the daemon's path, and a frozen dataclass's ``__init__`` stores each of
-    its ten fields through ``object.__setattr__`` (1.9 us a report for the
-    UGEE reader, against 0.5 us as a tuple built by `new_state`; docs/devices.md,
-    Speed). Tests and other callers build it as usual, fields by keyword."""
+    its ten fields through ``object.__setattr__``, which cost more than the
+    rest of the reader (docs/devices.md, Speed). The readers build it with
+    `new_state`; tests and other callers as usual, fields by keyword."""
 
     x: int
     y: int
@@ -59,8 +59,9 @@ new_state = cast(Callable[[type[PenState], Fields], PenState], tuple.__new__)
 
 What the readers build per report. ``tuple.__new__`` is C; the NamedTuple's
 own ``__new__`` is a Python function taking the fields as arguments (with
-defaults), 0.2 us more a report (a functools.partial binding the class
-costs as much again). The fields' types are checked by mypy through `Fields`."""
+defaults), which costs about as much again as the rest of a short reader
+(and so does a functools.partial binding the class). The fields' types are
+checked by mypy through `Fields`."""
 
 u16x2 = struct.Struct("<2H").unpack_from
 """Two little-endian 16-bit values at an offset (X and Y, most layouts)."""

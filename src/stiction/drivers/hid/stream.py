@@ -168,6 +168,7 @@ class ReportStream:
         return []
 
     def _compile(self, direct: bool) -> ReportFn:
+        """This stream's generated feed; `direct`: a family's reader values without its bytes."""
         return compile_feed(
             self,
             self.mappings,
