@@ -217,9 +217,14 @@ def _bench_recording(
             # Its id's entry names a family that the daemon keeps off this
             # interface; the family reads these reports all the same (the
             # UGEE M708's firmware report has the XP-Pen layout's bits).
-            family = by_id.family
-            fam = Streamed(f"{path.stem}/family", reports, maker(by_id), ("stream", "bytes_path"))
-            streams.append(fam)
+            try:
+                maker(by_id)()
+            except DeviceError:
+                pass
+            else:
+                family = by_id.family
+                paths = ("stream", "bytes_path")
+                streams.append(Streamed(f"{path.stem}/family", reports, maker(by_id), paths))
     t_ht = _best(hidtools, repeat) / len(ht_sample)
     t_us = _best(ours, repeat) / len(reports)
     t_batch = _best(batch, repeat * 4)
