@@ -185,7 +185,7 @@ _REPORT = st.one_of(_PEN_SHAPED, _PEN_SHAPED, st.binary(max_size=16))
 
 
 @pytest.mark.parametrize("family", sorted(FAMILIES))
-@settings(max_examples=40)  # three streams built per example; the sweep above is exhaustive
+@settings(max_examples=25)  # three streams built per example; the sweep above is exhaustive
 @given(
     reports=st.lists(_REPORT, min_size=8, max_size=40),
     geom=st.sampled_from([WIDE, NARROW, HUGE]),
