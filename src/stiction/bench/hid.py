@@ -31,12 +31,13 @@ repeats: the machine is shared, and wall-clock time there also counts the
 slices other jobs take of the CPUs (at a load average of 5 on 2 CPUs, half
 or more of a run); CPU time counts only the code's own work, and the
 minimum is the run least disturbed by the rest (caches, the other
-hyperthread). The stream paths, whose figures the issue's target reads,
-are timed in rounds: each round feeds every recording once through each
-path, so a slow spell of the machine falls on all of them alike rather
-than on whichever recording was being timed, and rounds go on until the
-pooled minimum has stopped moving (`_stream_rounds`). Writes
-hid.{json,txt,png} in the results folder (--save: bench/results/).
+hyperthread; a virtual machine's CPU time also grows while its host
+runs something else). Everything is timed in rounds (`_rounds`): each
+round runs every measurement of every recording once, so a slow spell of
+the machine (they last seconds) falls on all of them alike rather than on
+whichever recording was being timed, and rounds go on until the pooled
+feed has stopped moving. Writes hid.{json,txt,png} in the results folder
+(--save: bench/results/).
 """
 
 from __future__ import annotations
@@ -48,6 +49,7 @@ import platform
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 from pathlib import Path
 from typing import Any
 
@@ -59,13 +61,23 @@ TARGET_STREAM_US = 1.0
 """Issue 14: a report to its PenSamples on the daemon's path, per report."""
 
 
-def _best(fn: Callable[[], object], repeat: int) -> float:
-    best = float("inf")
-    for _ in range(repeat):
-        t0 = time.process_time()
-        fn()
-        best = min(best, time.process_time() - t0)
-    return best
+def _timed(fn: Callable[[], object], warm: int) -> Callable[[], float]:
+    """`fn` as a job of `_rounds`: the least CPU seconds of `warm` calls in a row.
+
+    The other jobs of a round leave the caches cold for this one; a short
+    job (a batch decode takes tens of microseconds) would time that, not
+    itself, without a few calls back to back.
+    """
+
+    def job() -> float:
+        best = float("inf")
+        for _ in range(warm):
+            t0 = time.process_time()
+            fn()
+            best = min(best, time.process_time() - t0)
+        return best
+
+    return job
 
 
 @dataclass(frozen=True)
@@ -101,33 +113,33 @@ def _pass(item: Streamed, path: str) -> float:
     return time.process_time() - t0
 
 
-def _stream_rounds(items: list[Streamed], least: int, most: int) -> tuple[dict[str, float], int]:
-    """The minimum per (item, path) key ``key/path``, in rounds over all; the rounds taken.
+Jobs = dict[str, Callable[[], float]]
+"""Timed passes by key (``recording/what``): each call runs one and returns its seconds."""
+
+
+def _rounds(jobs: Jobs, watch: list[str], least: int, most: int) -> tuple[dict[str, float], int]:
+    """The minimum seconds per job, in rounds that run every job once; the rounds taken.
 
     At least 2 x `least` rounds, then more while the last `least` rounds
-    still lowered the pooled daemon figure by over 1 % (a slow spell of the
-    machine lasts seconds; the minimum must come from outside one), at most
-    `most`.
+    still lowered the sum of the `watch` jobs (the daemon's feed) by over
+    1 %, at most `most`. A slow spell of the machine lasts seconds: in rounds
+    it falls on every job alike, and the minimum comes from outside it.
     """
-    best: dict[str, float] = {}
+    best = dict.fromkeys(jobs, float("inf"))
     history: list[float] = []
     rounds = 0
     while rounds < most:
-        for item in items:
-            for path in item.paths:
-                key = f"{item.key}/{path}"
-                best[key] = min(best.get(key, float("inf")), _pass(item, path))
+        for key, job in jobs.items():
+            best[key] = min(best[key], job())
         rounds += 1
-        history.append(sum(best[f"{it.key}/stream"] for it in items if "/" not in it.key))
+        history.append(sum(best[k] for k in watch))
         if rounds >= 2 * least and history[-1] > 0.99 * history[-1 - least]:
             break
     return best, rounds
 
 
-def _bench_recording(
-    path: Path, repeat: int, sample: int
-) -> tuple[dict[str, Any], list[Streamed]] | None:
-    """The decoding figures of one recording, and what its stream timing needs."""
+def _bench_recording(path: Path, sample: int) -> tuple[dict[str, Any], Jobs] | None:
+    """One recording's row (its figures filled in by `main`) and its timed jobs."""
     from hidtools.hid import ReportDescriptor as HtDescriptor
 
     from stiction.drivers.hid.decoder import ReportDecoder
@@ -225,27 +237,27 @@ def _bench_recording(
                 family = by_id.family
                 paths = ("stream", "bytes_path")
                 streams.append(Streamed(f"{path.stem}/family", reports, maker(by_id), paths))
-    t_ht = _best(hidtools, repeat) / len(ht_sample)
-    t_us = _best(ours, repeat) / len(reports)
-    t_batch = _best(batch, repeat * 4)
-    t_batch_build = _best(batch_with_build, repeat)
+    name = path.stem
+    jobs: Jobs = {
+        f"{name}/hidtools": _timed(hidtools, 2),
+        f"{name}/ours": _timed(ours, 3),
+        f"{name}/batch": _timed(batch, 8),
+        f"{name}/batch_build": _timed(batch_with_build, 3),
+    }
+    for item in streams:
+        for p in item.paths:
+            jobs[f"{item.key}/{p}"] = partial(_pass, item, p)
     return {
-        "recording": path.stem,
+        "recording": name,
         "reports": len(reports),
         "hidtools_sample": len(ht_sample),
-        "hidtools_us_per_report": t_ht * 1e6,
-        "us_per_report": t_us * 1e6,
-        "ratio": t_ht / t_us,
-        "batch_seconds": t_batch,
-        "batch_reports_per_s": len(reports) / t_batch,
-        "batch_with_array_build_reports_per_s": len(reports) / t_batch_build,
         "path": path_kind,
         "stream_us_per_report": None,
         "tracker_us_per_report": None,
         "family": family,
         "family_us_per_report": None,
         "bytes_path_us_per_report": None,
-    }, streams
+    }, jobs
 
 
 def _table(rows: list[dict[str, Any]], total: dict[str, Any]) -> str:
@@ -256,8 +268,8 @@ def _table(rows: list[dict[str, Any]], total: dict[str, Any]) -> str:
     lines = [
         "stiction bench hid: decoding and the daemon's report -> PenSample path, "
         "per recording of shared/data/hid",
-        f"(CPU times, minimum of repeats; the feed in {total['stream_rounds']} interleaved "
-        f"rounds; load average at start {total['load_average']:.2f} on {os.cpu_count()} CPUs)",
+        f"(CPU times, minimum of {total['stream_rounds']} interleaved rounds; "
+        f"load average at start {total['load_average']:.2f} on {os.cpu_count()} CPUs)",
         "",
         head,
         "-" * len(head),
@@ -350,8 +362,8 @@ def main(argv: list[str]) -> int:
         "--repeat",
         type=int,
         default=7,
-        help="repeats per measurement (min is kept); the stream paths run 2 to 8 times "
-        "as many interleaved rounds, until their minimum settles",
+        help="2 to 8 times this many rounds over every measurement, until the pooled "
+        "feed's minimum settles (the minimum of each is kept)",
     )
     ap.add_argument("--sample", type=int, default=400, help="reports per recording for hid-tools")
     ap.add_argument(
@@ -363,18 +375,26 @@ def main(argv: list[str]) -> int:
     data = shared_data("hid", args.data)
     load = os.getloadavg()[0]
     benched = [
-        b
-        for p in sorted(data.glob("*.hid"))
-        if (b := _bench_recording(p, args.repeat, args.sample)) is not None
+        b for p in sorted(data.glob("*.hid")) if (b := _bench_recording(p, args.sample)) is not None
     ]
     rows = [row for row, _ in benched]
-    items = [item for _, some in benched for item in some]
-    best, rounds = _stream_rounds(items, max(args.repeat, 1), 8 * max(args.repeat, 1))
+    jobs: Jobs = {k: job for _, some in benched for k, job in some.items()}
+    watch = [f"{row['recording']}/stream" for row in rows if f"{row['recording']}/stream" in jobs]
+    least = max(args.repeat, 1)
+    best, rounds = _rounds(jobs, watch, least, 8 * least)
     for row in rows:
-        name = row["recording"]
+        name, n_reports = row["recording"], row["reports"]
+        t_ht = best[f"{name}/hidtools"] / row["hidtools_sample"]
+        t_us = best[f"{name}/ours"] / n_reports
+        row["hidtools_us_per_report"] = t_ht * 1e6
+        row["us_per_report"] = t_us * 1e6
+        row["ratio"] = t_ht / t_us
+        row["batch_seconds"] = best[f"{name}/batch"]
+        row["batch_reports_per_s"] = n_reports / best[f"{name}/batch"]
+        row["batch_with_array_build_reports_per_s"] = n_reports / best[f"{name}/batch_build"]
         if f"{name}/stream" not in best:
             continue
-        per = 1e6 / row["reports"]
+        per = 1e6 / n_reports
         row["stream_us_per_report"] = best[f"{name}/stream"] * per
         row["tracker_us_per_report"] = best[f"{name}/tracker"] * per
         if row["family"] is not None:
