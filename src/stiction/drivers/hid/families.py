@@ -7,7 +7,11 @@ function that reads one raw report into a `PenState` (or says it is not a
 pen report), and one generated descriptor describes the normalised report
 that the rest of the HID path (decoder, pen mapping, ReportStream) already
 understands. A family therefore needs no decoder of its own: it is a fix-up
-plus a descriptor, like the UC-Logic modes in uclogic.py.
+plus a descriptor, like the UC-Logic modes in uclogic.py. On the daemon's
+path the fix-up's bytes are skipped: ReportStream's generated feed calls the
+reader and takes the normalised report's values from the PenState
+(`normal_values`, `FamilyFixup`); `normalise` and the bytes stay the
+statement that path is tested against.
 
 This module holds the Wacom families, the registry (`FAMILIES`, and
 `OTD_PARSERS` for the catalogue generator) and the normalised report. The
@@ -62,19 +66,31 @@ from stiction.drivers.hid import families_uclogic as _uclogic
 from stiction.drivers.hid import families_veikk as _veikk
 from stiction.drivers.hid import families_waltop as _waltop
 from stiction.drivers.hid import families_xppen as _xppen
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+from stiction.drivers.hid import pen as _pen
+from stiction.drivers.hid.family_types import (
+    Geometry,
+    PenState,
+    Reader,
+    new_state,
+    s8,
+    u16le,
+    u16x2,
+    u16x3,
+)
 
 __all__ = [
     "FAMILIES",
     "NORMAL_ID",
     "NO_IN_RANGE",
     "OTD_PARSERS",
+    "FamilyFixup",
     "Geometry",
     "PenState",
     "Reader",
     "descriptor",
     "family_for",
     "fixup",
+    "normal_values",
     "normalise",
 ]
 
@@ -89,17 +105,26 @@ touch), so a hovering eraser sets only Invert, as Microsoft's pen protocol
 has it and pen.py reads it."""
 
 
+# The readers below run once per report on the daemon's path: they build
+# each PenState from all its fields through `new_state`, read 16-bit values
+# with struct and test flags as ``b & bit != 0`` (a bool without a call);
+# docs/devices.md, Speed, has what each costs.
+
+
 def _penpartner(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
-        if len(d) < 7 or d[0] not in (1, 2):
+        if len(d) < 7 or (rid := d[0]) not in (1, 2):
             return None
-        x, y, p = u16le(d, 1), u16le(d, 3), s8(d[6])
-        eraser = bool(d[5] & 0x20)
-        if d[0] == 1:
-            if not d[5] & 0x80:
-                return PenState(x, y, 0, False, False)
-            return PenState(x, y, p + 127, p > -127, True, bool(d[5] & 0x40), eraser=eraser)
-        return PenState(x, y, p + 127, p > -80 and not eraser, True, bool(d[5] & 0x40))
+        x, y = u16x2(d, 1)
+        p, b = s8(d[6]), d[5]
+        if rid == 1:
+            if not b & 0x80:
+                return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return new_state(
+                PenState, (x, y, p + 127, p > -127, True, b & 0x40 != 0, False, b & 0x20 != 0, 0, 0)
+            )
+        tip = p > -80 and not b & 0x20
+        return new_state(PenState, (x, y, p + 127, tip, True, b & 0x40 != 0, False, False, 0, 0))
 
     return read
 
@@ -108,21 +133,16 @@ def _graphire(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        tool = (d[1] >> 5) & 3
-        x, y = u16le(d, 2), u16le(d, 4)
-        if not d[1] & 0x80:
-            return PenState(x, y, 0, False, False)
+        b = d[1]
+        tool = (b >> 5) & 3
+        x, y = u16x2(d, 2)
+        if not b & 0x80:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
         if tool >= 2:  # a mouse on the tablet: not a pen
             return None
-        return PenState(
-            x,
-            y,
-            d[6] | ((d[7] & 0x03) << 8),
-            bool(d[1] & 0x01),
-            True,
-            bool(d[1] & 0x02),
-            bool(d[1] & 0x04),
-            tool == 1,
+        p = d[6] | ((d[7] & 0x03) << 8)
+        return new_state(
+            PenState, (x, y, p, b & 0x01 != 0, True, b & 0x02 != 0, b & 0x04 != 0, tool == 1, 0, 0)
         )
 
     return read
@@ -134,20 +154,19 @@ def _bpt(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        in_range, valid, buttons = bool(d[1] & 0x80), bool(d[1] & 0x40), bool(d[1] & 0x20)
-        if valid:
-            last[0], last[1] = u16le(d, 2), u16le(d, 4)
-        if not in_range:
-            return PenState(last[0], last[1], 0, False, False)
-        return PenState(
-            last[0],
-            last[1],
-            u16le(d, 6) if buttons else 0,
-            buttons and bool(d[1] & 0x01),
-            True,
-            buttons and bool(d[1] & 0x02),
-            buttons and bool(d[1] & 0x04),
-            bool(d[1] & 0x08),
+        b = d[1]
+        if b & 0x40:  # position valid
+            last[0], last[1] = u16x2(d, 2)
+        if not b & 0x80:  # not in range
+            return new_state(
+                PenState, (last[0], last[1], 0, False, False, False, False, False, 0, 0)
+            )
+        x, y, eraser = last[0], last[1], b & 0x08 != 0
+        if not b & 0x20:  # buttons (and pressure) not valid
+            return new_state(PenState, (x, y, 0, False, True, False, False, eraser, 0, 0))
+        p = u16le(d, 6)
+        return new_state(
+            PenState, (x, y, p, b & 0x01 != 0, True, b & 0x02 != 0, b & 0x04 != 0, eraser, 0, 0)
         )
 
     return read
@@ -164,24 +183,22 @@ def _intuos(geom: Geometry, half: bool = False) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 10 or d[0] != 2:
             return None
-        if d[1] & 0xFC == 0xC0:  # enter proximity: bytes 2-3 hold the tool id
+        b = d[1]
+        if b & 0xFC == 0xC0:  # enter proximity: bytes 2-3 hold the tool id
             tool_id = ((d[2] << 4) | (d[3] >> 4)) & 0xFFF
-            state["eraser"] = bool(
-                tool_id & 0x008
-            )  # erasers are the ids with bit 3 set (0x82a, 0x85a, ...)
+            # erasers are the ids with bit 3 set (0x82a, 0x85a, ...)
+            state["eraser"] = tool_id & 0x008 != 0
             return None
-        if d[1] & 0xFE == 0x80:  # exit proximity
+        if b & 0xFE == 0x80:  # exit proximity
             state["eraser"] = None
-            return PenState(0, 0, 0, False, False)
-        kind = (d[1] >> 1) & 0x0F
-        if state["eraser"] is None or kind > 3:
+            return new_state(PenState, (0, 0, 0, False, False, False, False, False, 0, 0))
+        eraser = state["eraser"]
+        if eraser is None or (b >> 1) & 0x0F > 3:
             return None  # no tool in range yet, or a mouse/airbrush packet
         x = ((d[2] << 9) | (d[3] << 1) | ((d[9] >> 1) & 1)) >> coord_shift
         y = ((d[4] << 9) | (d[5] << 1) | (d[9] & 1)) >> coord_shift
-        p = ((d[6] << 3) | ((d[7] & 0xC0) >> 5) | (d[1] & 1)) >> pressure_shift
-        return PenState(
-            x, y, p, p > 10, True, bool(d[1] & 2), bool(d[1] & 4), bool(state["eraser"])
-        )
+        p = ((d[6] << 3) | ((d[7] & 0xC0) >> 5) | (b & 1)) >> pressure_shift
+        return new_state(PenState, (x, y, p, p > 10, True, b & 2 != 0, b & 4 != 0, eraser, 0, 0))
 
     return read
 
@@ -190,12 +207,13 @@ def _ptu(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != 2:
             return None
-        eraser = bool(d[1] & 0x04)
-        x, y, p = u16le(d, 2), u16le(d, 4), u16le(d, 6)
-        if not d[1] & 0x20:
-            return PenState(x, y, 0, False, False)
-        tip = bool(d[1] & (0x08 if eraser else 0x01))
-        return PenState(x, y, p, tip, True, bool(d[1] & 0x02), bool(d[1] & 0x10), eraser)
+        b = d[1]
+        x, y, p = u16x3(d, 2)
+        if not b & 0x20:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        eraser = b & 0x04 != 0
+        tip = b & (0x08 if eraser else 0x01) != 0
+        return new_state(PenState, (x, y, p, tip, True, b & 0x02 != 0, b & 0x10 != 0, eraser, 0, 0))
 
     return read
 
@@ -213,7 +231,7 @@ def _pl(geom: Geometry) -> Reader:
         y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
         if not d[1] & 0x40:
             tool["eraser"] = None
-            return PenState(x, y, 0, False, False)
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
         if tool["eraser"] is None:
             tool["eraser"] = bool(d[0] & 0x10 or d[4] & 0x20)
         elif tool["eraser"] and not d[4] & 0x20:
@@ -223,8 +241,9 @@ def _pl(geom: Geometry) -> Reader:
         if geom.max_pressure > 255:
             p = (p << 1) | ((d[4] >> 6) & 1)
         barrel2 = not eraser and bool(d[4] & 0x20)
-        return PenState(
-            x, y, p + centre, bool(d[4] & 0x08), True, bool(d[4] & 0x10), barrel2, eraser
+        return new_state(
+            PenState,
+            (x, y, p + centre, d[4] & 0x08 != 0, True, d[4] & 0x10 != 0, barrel2, eraser, 0, 0),
         )
 
     return read
@@ -352,15 +371,73 @@ def normalise(state: PenState, geom: Geometry) -> bytes:
     )
 
 
-def fixup(family: str, geom: Geometry) -> Callable[[bytes], bytes | None]:
+def normal_values(geom: Geometry) -> dict[int, str]:
+    """What `normalise` writes into each field, as Python expressions over a PenState.
+
+    Each PenState field is named ``pen_`` + its name (``pen_x``, ``pen_tip``).
+
+    Keyed by the usage of the field in the generated descriptor. The
+    generated feed (report_code.compile_feed, ReportStream) evaluates these
+    on the family reader's PenState instead of packing a report and decoding
+    it again: what the bytes would hold, without the bytes. Flags are left
+    as bools (the generated code compares each with 0, as it does the
+    decoded bits), the numbers clamped to the ranges `normalise` clamps to.
+    `normalise` stays the readable statement and the oracle: the tests run
+    both over every family (tests/hid/test_hid_family_path.py).
+    """
+
+    def clamp(field: str, top: int) -> str:
+        # min(max(v, 0), top) without the two calls
+        return f"(0 if pen_{field} < 0 else {top} if pen_{field} > {top} else pen_{field})"
+
+    return {
+        _pen.TIP_SWITCH: "pen_tip",
+        _pen.BARREL: "pen_barrel",
+        _pen.SECONDARY_BARREL: "pen_barrel2",
+        _pen.ERASER: "(pen_eraser and pen_tip)",
+        _pen.IN_RANGE: "pen_in_range",
+        _pen.INVERT: "pen_eraser",
+        _pen.GD_X: clamp("x", geom.max_x),
+        _pen.GD_Y: clamp("y", geom.max_y),
+        _pen.TIP_PRESSURE: clamp("pressure", min(geom.max_pressure, 0xFFFF)),
+    }
+
+
+class FamilyFixup:
+    """A family's fix-up: a ReportStream fix-up that also hands over its reader.
+
+    Called, it is the bytes path -- raw report -> `PenState` -> `normalise`
+    -> the normalised report, None for other reports -- which the stream's
+    reference path (`ReportStream.use_tracker`) and the tests' oracle run.
+    ReportStream's generated feed calls `read` instead and takes the values
+    `normal_values` names straight from the PenState (see report_code.py).
+    """
+
+    __slots__ = ("family", "geometry", "read")
+
+    fields = PenState._fields
+    """What a reader's PenState holds, in order (`normal_values` names them ``pen_`` + field)."""
+    report_id = NORMAL_ID
+    """The ID of the normalised report, the one the generated descriptor has."""
+
+    def __init__(self, family: str, geom: Geometry) -> None:
+        self.family = family
+        self.geometry = geom
+        self.read: Reader = FAMILIES[family](geom)
+        """This stream's reader (some families keep state between reports)."""
+
+    def __call__(self, data: bytes) -> bytes | None:
+        state = self.read(data)
+        return None if state is None else normalise(state, self.geometry)
+
+    def values(self) -> dict[int, str]:
+        """`normal_values` of this geometry: what the generated feed reads from a PenState."""
+        return normal_values(self.geometry)
+
+
+def fixup(family: str, geom: Geometry) -> FamilyFixup:
     """A ReportStream fix-up: raw report -> normalised report, None for other reports."""
-    read = FAMILIES[family](geom)
-
-    def fix(data: bytes) -> bytes | None:
-        state = read(data)
-        return None if state is None else normalise(state, geom)
-
-    return fix
+    return FamilyFixup(family, geom)
 
 
 def _item(prefix: int, value: int) -> bytes:

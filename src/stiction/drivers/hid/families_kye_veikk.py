@@ -21,7 +21,7 @@
 
 from __future__ import annotations
 
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, u16le
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16x3
 
 KYE_PEN_ID = 0x10
 VEIKK_PEN_IDS = (0x01, 0x02)
@@ -31,11 +31,11 @@ def _flags_reader(ids: tuple[int, ...], in_range_bit: int) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] not in ids:
             return None
-        x, y = u16le(d, 2), u16le(d, 4)
-        if not d[1] & in_range_bit:
-            return PenState(x, y, 0, False, False)
-        flags = d[1]
-        return PenState(x, y, u16le(d, 6), bool(flags & 1), True, bool(flags & 2), bool(flags & 4))
+        b = d[1]
+        x, y, p = u16x3(d, 2)
+        if not b & in_range_bit:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
     return read
 

@@ -37,7 +37,17 @@ layouts are taken, and checked against the DIGImend/tablets dumps in
 
 from __future__ import annotations
 
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+import struct
+
+from stiction.drivers.hid.family_types import (
+    Geometry,
+    PenState,
+    Reader,
+    new_state,
+    s8,
+    u16le,
+    u16x3,
+)
 
 V1_ID = 0x07
 V2_ID = 0x08
@@ -48,30 +58,28 @@ _V1_AWAY = 0x40  # UC-Logic v1: in-range bit, set while the pen is away
 _UGEE_IN_RANGE = 0x20
 _UGEE_ERASER = 0x08
 _UGEE_FRAME = 0xF0
-
-
-def _buttons(flags: int) -> tuple[bool, bool, bool]:
-    return bool(flags & 0x01), bool(flags & 0x02), bool(flags & 0x04)
+_UGEE_IDS = (UGEE_VENDOR_ID, UGEE_FIRMWARE_ID)
+_XYPT = struct.Struct("<3H2b").unpack_from
+"""UGEE v2 bytes 2-9: X, Y, pressure (16-bit), tilt X and Y (signed bytes)."""
 
 
 def _v1(d: bytes) -> PenState | None:
-    if len(d) < 8 or d[1] & _FRAME:
+    if len(d) < 8 or (b := d[1]) & _FRAME:
         return None
-    tip, barrel, barrel2 = _buttons(d[1])
-    x, y, p = u16le(d, 2), u16le(d, 4), u16le(d, 6)
-    if d[1] & _V1_AWAY:
-        return PenState(x, y, 0, False, False)
-    return PenState(x, y, p, tip, True, barrel, barrel2)
+    x, y, p = u16x3(d, 2)
+    if b & _V1_AWAY:
+        return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+    return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
 
 def _v2(d: bytes, tilt: bool) -> PenState | None:
-    if len(d) < 10 or d[1] & _FRAME:
+    if len(d) < 10 or (b := d[1]) & _FRAME:
         return None
-    tip, barrel, barrel2 = _buttons(d[1])
-    x = u16le(d, 2) | (d[8] << 16)
-    y = u16le(d, 4) | (d[9] << 16)
+    x, y, p = u16x3(d, 2)
+    x |= d[8] << 16
+    y |= d[9] << 16
     tx, ty = (s8(d[10]), -s8(d[11])) if tilt and len(d) >= 12 else (0, 0)
-    return PenState(x, y, u16le(d, 6), tip, True, barrel, barrel2, tilt_x=tx, tilt_y=ty)
+    return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, tx, ty))
 
 
 def _uclogic(tilt: bool, v1: bool) -> Reader:
@@ -107,17 +115,19 @@ def xp_pen(geom: Geometry) -> Reader:
     wide = geom.max_x > 0xFFFF
 
     def read(d: bytes) -> PenState | None:
-        if len(d) < 8 or d[0] not in (UGEE_VENDOR_ID, UGEE_FIRMWARE_ID) or d[1] >= _UGEE_FRAME:
+        if (n := len(d)) < 8 or d[0] not in _UGEE_IDS or (b := d[1]) >= _UGEE_FRAME:
             return None
-        x, y = u16le(d, 2), u16le(d, 4)
-        if wide and len(d) >= 12:
+        if n >= 10:
+            x, y, p, tx, ty = _XYPT(d, 2)  # one call for X, Y, pressure and tilt
+        else:
+            (x, y, p), tx, ty = u16x3(d, 2), 0, 0
+        if wide and n >= 12:
             x |= u16le(d, 10) << 16
-        if not d[1] & _UGEE_IN_RANGE:
-            return PenState(x, y, 0, False, False)
-        tip, barrel, barrel2 = _buttons(d[1])
-        tx, ty = (s8(d[8]), s8(d[9])) if len(d) >= 10 else (0, 0)
-        p = u16le(d, 6) & pressure_mask
-        eraser = bool(d[1] & _UGEE_ERASER)
-        return PenState(x, y, p, tip, True, barrel, barrel2, eraser, tx, ty)
+        if not b & _UGEE_IN_RANGE:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        tip, barrel, barrel2, eraser = b & 1 != 0, b & 2 != 0, b & 4 != 0, b & _UGEE_ERASER != 0
+        return new_state(
+            PenState, (x, y, p & pressure_mask, tip, True, barrel, barrel2, eraser, tx, ty)
+        )
 
     return read

@@ -44,7 +44,15 @@ What is decided here, and why:
 
 from __future__ import annotations
 
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+from stiction.drivers.hid.family_types import (
+    Geometry,
+    PenState,
+    Reader,
+    new_state,
+    s8x2,
+    u16le,
+    u16x2,
+)
 
 REPORT_ID = 0x09
 PEN = 0x41
@@ -66,15 +74,13 @@ def _reader(tilt: bool, narrow: bool = False) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < length or d[0] != REPORT_ID or d[1] != PEN:
             return None
-        x, y = (u16le(d, 3), u16le(d, 5)) if narrow else (_u24le(d, 3), _u24le(d, 6))
-        flags = d[2]
-        if not flags & _IN_RANGE:
-            return PenState(x, y, 0, False, False)
+        x, y = u16x2(d, 3) if narrow else (_u24le(d, 3), _u24le(d, 6))
+        b = d[2]
+        if not b & _IN_RANGE:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
         p = u16le(d, at_p)
-        tx, ty = (s8(d[11]), s8(d[12])) if tilt and len(d) >= 13 else (0, 0)
-        return PenState(
-            x, y, p, p > 0, True, bool(flags & 2), bool(flags & 4), tilt_x=tx, tilt_y=ty
-        )
+        tx, ty = s8x2(d, 11) if tilt and len(d) >= 13 else (0, 0)
+        return new_state(PenState, (x, y, p, p > 0, True, b & 2 != 0, b & 4 != 0, False, tx, ty))
 
     return read
 

@@ -31,7 +31,7 @@ uses this layout, was merged as verified on the device (pull request #1569).
 
 from __future__ import annotations
 
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, u16le
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16le, u16x2
 
 PEN_ID = 0x02
 """Report 2 is the pen; report 5 the button strip (not read)."""
@@ -42,11 +42,11 @@ def waltop(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < 8 or d[0] != PEN_ID:
             return None
-        flags = d[5]
-        tip = bool(flags & _TIP)
+        b = d[5]
+        x, y = u16x2(d, 1)
+        tip = b & _TIP != 0
         p = u16le(d, 6) if tip else 0
-        return PenState(
-            u16le(d, 1), u16le(d, 3), p, tip, True, bool(flags & _BARREL), bool(flags & _BARREL2)
-        )
+        barrel, barrel2 = b & _BARREL != 0, b & _BARREL2 != 0
+        return new_state(PenState, (x, y, p, tip, True, barrel, barrel2, False, 0, 0))
 
     return read

@@ -90,9 +90,10 @@ public dumps and other sources named with each:
 from __future__ import annotations
 
 import dataclasses
+import struct
 
 from stiction.drivers.hid import families_uclogic as _uclogic
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, s8, u16le
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16x3
 
 VENDOR_ID = 0x02
 FIRMWARE_V1_ID = 0x07
@@ -108,14 +109,12 @@ _GONE = 0x40  # xp-pen-8: byte 1 bit 6, set while the pen is away
 _PAD = 0x10  # byte 1 bit 4: a pad report (OpenTabletDriver's XP_PenReportParser)
 _V1_FRAME = 0x60  # bits 5 and 6 together: a UC-Logic v1 frame report (0xe0)
 _ERASER = 0x08
+_GEN2 = struct.Struct("<3H2b2B").unpack_from
+"""Gen-2 bytes 2-11: X, Y, pressure (low 16 bits), tilt X and Y, X's and Y's bits 16-23."""
 LOW13 = 0x1FFF
 """The pressure bits below the offset (8192) these tablets add."""
 LOW14 = 0x3FFF
 """The gen-2 pressure bits in bytes 6-7, below the 0x4000 the firmware sets."""
-
-
-def _flags(b: int) -> tuple[bool, bool, bool]:
-    return bool(b & 0x01), bool(b & 0x02), bool(b & 0x04)
 
 
 def xp_pen_gen2(geom: Geometry) -> Reader:
@@ -124,16 +123,17 @@ def xp_pen_gen2(geom: Geometry) -> Reader:
     def read(d: bytes) -> PenState | None:
         if len(d) < GEN2_LENGTH or d[0] != VENDOR_ID:
             return None
-        x = u16le(d, 2) | (d[10] << 16)
-        y = u16le(d, 4) | (d[11] << 16)
-        if d[1] == _AWAY:
-            return PenState(x, y, 0, False, False)
-        if d[1] & 0xF0 != _GEN2_PEN:
+        x, y, p, tx, ty, x_high, y_high = _GEN2(d, 2)
+        x |= x_high << 16
+        y |= y_high << 16
+        b = d[1]
+        if b == _AWAY:
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        if b & 0xF0 != _GEN2_PEN:
             return None  # pad buttons, dials, battery
-        tip, barrel, barrel2 = _flags(d[1])
-        p = (u16le(d, 6) & LOW14) | ((d[13] & 0x01) << 13)
-        eraser = bool(d[1] & _ERASER)
-        return PenState(x, y, p, tip, True, barrel, barrel2, eraser, s8(d[8]), s8(d[9]))
+        p = (p & LOW14) | ((d[13] & 0x01) << 13)
+        tip, barrel, barrel2, eraser = b & 1 != 0, b & 2 != 0, b & 4 != 0, b & _ERASER != 0
+        return new_state(PenState, (x, y, p, tip, True, barrel, barrel2, eraser, tx, ty))
 
     return read
 
@@ -154,11 +154,10 @@ def xp_pen_8(geom: Geometry) -> Reader:
         b = d[1]
         if not b & _PEN or b & _PAD or b & _V1_FRAME == _V1_FRAME:
             return None
-        x, y = u16le(d, 2), u16le(d, 4)
+        x, y, p = u16x3(d, 2)
         if b & _GONE:
-            return PenState(x, y, 0, False, False)
-        tip, barrel, barrel2 = _flags(b)
-        return PenState(x, y, u16le(d, 6), tip, True, barrel, barrel2)
+            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
     return read
 

@@ -7,8 +7,10 @@ can share them without importing one another.
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import NamedTuple, cast
 
 
 @dataclass(frozen=True, slots=True)
@@ -23,11 +25,16 @@ class Geometry:
     source: str = ""
 
 
-@dataclass(frozen=True, slots=True)
-class PenState:
+class PenState(NamedTuple):
     """One pen report, read. Tilt (degrees, where the protocol has it) is read for
     completeness of the layout but not forwarded: the normalised report has no tilt,
-    as the friction model does not use it."""
+    as the friction model does not use it.
+
+    A tuple, not a frozen dataclass: a family reader builds one per report,
+    on the daemon's path, and a frozen dataclass's ``__init__`` stores each of
+    its ten fields through ``object.__setattr__``, which cost more than the
+    rest of the reader (docs/devices.md, Speed). The readers build it with
+    `new_state`; tests and other callers as usual, fields by keyword."""
 
     x: int
     y: int
@@ -43,6 +50,25 @@ class PenState:
 
 Reader = Callable[[bytes], PenState | None]
 """One raw report -> the pen it describes, or None for a report that is not the pen's."""
+
+Fields = tuple[int, int, int, bool, bool, bool, bool, bool, int, int]
+"""A PenState's ten fields in order."""
+
+new_state = cast(Callable[[type[PenState], Fields], PenState], tuple.__new__)
+"""``new_state(PenState, fields)``: a PenState from all ten fields in one tuple.
+
+What the readers build per report. ``tuple.__new__`` is C; the NamedTuple's
+own ``__new__`` is a Python function taking the fields as arguments (with
+defaults), which costs about as much again as the rest of a short reader
+(and so does a functools.partial binding the class). The fields' types are
+checked by mypy through `Fields`."""
+
+u16x2 = struct.Struct("<2H").unpack_from
+"""Two little-endian 16-bit values at an offset (X and Y, most layouts)."""
+u16x3 = struct.Struct("<3H").unpack_from
+"""Three little-endian 16-bit values at an offset (X, Y and pressure, most layouts)."""
+s8x2 = struct.Struct("<2b").unpack_from
+"""Two signed bytes at an offset (tilt X and Y)."""
 
 
 def u16le(d: bytes, i: int) -> int:

@@ -21,6 +21,12 @@ tests/hid/test_hid_report_code.py runs them against ContactTracker over
 every recording), and update the tracker's `active` and `last` the same
 way. Layouts they do not cover -- finger reports with a Contact Count,
 whose contacts follow across reports -- stay with ContactTracker.
+
+A vendor report family (families.py) has its reports read by a Python
+reader into a PenState that is then packed into a normalised report; for
+those `compile_feed` calls the reader and sets the values the contacts read
+from the PenState itself (`_family_lines`), so the same contact code runs
+without the bytes in between.
 """
 
 from __future__ import annotations
@@ -77,10 +83,19 @@ Returns = Callable[[str, str], list[str]]
 """(value, count) -> the statements that end the report with `value`, `count` samples."""
 
 
-def _body(m: ReportMapping, ns: dict[str, Any], prefix: str, ret: Returns) -> list[str]:
+def _body(
+    m: ReportMapping,
+    ns: dict[str, Any],
+    prefix: str,
+    ret: Returns,
+    values: dict[int, str] | None = None,
+) -> list[str]:
     """The statements of one report's path (unindented), from the bytes ``d`` to a return.
 
-    Constants go into `ns` under names starting with `prefix`.
+    Constants go into `ns` under names starting with `prefix`. With
+    `values` (usage -> an expression), each element the contacts read is
+    that expression instead of its bits of ``d`` (a vendor family's values,
+    see `compile_feed`); a usage it lacks raises KeyError.
     """
     # Only the elements some contact reads are decoded, in report order.
     used: list[int] = []
@@ -104,7 +119,10 @@ def _body(m: ReportMapping, ns: dict[str, Any], prefix: str, ret: Returns) -> li
     order = sorted(set(used), key=lambda i: (m.decoder.elements[i].bit_offset, i))
     name_of = {i: f"e{i}" for i in order}
     elements = [m.decoder.elements[i] for i in order]
-    lines = decode_statements(elements, [name_of[i] for i in order], ns)
+    if values is None:
+        lines = decode_statements(elements, [name_of[i] for i in order], ns)
+    else:
+        lines = [f"{name_of[i]} = {values[e.usage]}" for i, e in zip(order, elements, strict=True)]
     single = len(m.contacts) == 1  # the usual pen report: no list to append to
     if not single:
         lines.append("out = []")
@@ -162,12 +180,15 @@ def compile_feed(
     stats: Counter[str],
     ignored: frozenset[int] = frozenset(),
     timed: bool = True,
+    family: FamilyValues | None = None,
 ) -> ReportFn:
     """ReportStream.feed for this device as one generated function.
 
     `ignored`: the input report IDs that carry no contact (counted as
     ignored). `timed`: the stream has a proximity timeout, so the time of
-    the last report is kept.
+    the last report is kept. `family`: the fix-up is a vendor family's
+    (families.FamilyFixup), whose one report the mappings describe; see
+    `_family_lines`.
 
     Counting, the fix-up, the choice of report ID and every covered report
     ID's path are written out in one function (a report then costs one
@@ -188,6 +209,14 @@ def compile_feed(
     lines = ["def feed(t, d):", "    st._fed += 1"]
     if timed:  # only ReportStream.idle reads it, and only with a proximity timeout
         lines.append("    st._last_report_t = t")
+    if family is not None:
+        direct = _family_lines(mappings, numbered, family, ns, ret)
+        if direct is not None:
+            source = "\n".join([*lines, *_indent(direct, 1), "    return st._rest(t, d)"])
+            exec(compile(source, "<hid report stream feed, vendor family>", "exec"), ns)
+            fn = ns["feed"]
+            fn.source = source
+            return fn  # type: ignore[no-any-return]
     if fixup is not None:
         lines += [
             "    if d:",
@@ -234,6 +263,60 @@ def compile_feed(
     fn = ns["feed"]
     fn.source = source
     return fn  # type: ignore[no-any-return]
+
+
+class FamilyValues(Protocol):
+    """What the generated feed needs of a vendor family (families.FamilyFixup)."""
+
+    @property
+    def fields(self) -> tuple[str, ...]: ...
+    @property
+    def report_id(self) -> int: ...
+    @property
+    def read(self) -> Callable[[bytes], Any]: ...
+    def values(self) -> dict[int, str]: ...
+
+
+def _family_lines(
+    mappings: dict[int, ReportMapping],
+    numbered: bool,
+    family: FamilyValues,
+    ns: dict[str, Any],
+    ret: Returns,
+) -> list[str] | None:
+    """The feed's statements after counting for a vendor family, None where they do not apply.
+
+    The family's bytes path reads a report into a PenState, packs it into
+    the normalised report and the branch of that report decodes the bytes
+    again. Here the reader's PenState goes straight into that branch, its
+    fields unpacked as ``pen_`` + name: each value the contacts read is the
+    expression `family.values()` gives for its usage (what the packed bytes
+    would decode to), so the pack and the decode disappear and the contact
+    code is the same `_contact_lines` as every other report's. A report
+    the reader refuses is counted as ignored, an empty one goes to `_rest`,
+    as on the bytes path. None (the bytes path is kept) unless the mappings
+    are the one covered report of a family's generated descriptor, with the
+    family's report ID, and every usage its contacts read has an expression.
+    """
+    if not numbered or len(mappings) != 1:
+        return None
+    ((rid, m),) = mappings.items()
+    if rid != family.report_id or not covered(m):
+        return None
+    ns["read"] = family.read
+    try:
+        body = _body(m, ns, f"r{rid}_", ret, family.values())
+    except KeyError:
+        return None
+    return [
+        "if d:",
+        "    pen = read(d)",
+        "    if pen is None:",
+        '        stats["ignored"] += 1',
+        "        return []",
+        f"    ({', '.join('pen_' + f for f in family.fields)},) = pen",
+        *_indent(body, 1),
+    ]
 
 
 def _contact_lines(

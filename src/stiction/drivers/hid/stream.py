@@ -12,6 +12,7 @@ from collections.abc import Callable
 
 from stiction.drivers.hid.descriptor import ReportDescriptor
 from stiction.drivers.hid.devices import DeviceEntry
+from stiction.drivers.hid.families import NO_IN_RANGE, FamilyFixup
 from stiction.drivers.hid.pen import ContactTracker, build_mappings, device_kind
 from stiction.drivers.hid.report_code import ReportFn, compile_feed, compile_report
 from stiction.drivers.sample import PenSample
@@ -50,6 +51,9 @@ class ReportStream:
 
         `fixup` rewrites each raw report before decoding (vendor formats the
         descriptor cannot express); returning None drops the report as ignored.
+        A vendor family's (families.FamilyFixup, also made here from an
+        `entry` naming a family) is not called on the generated path: its
+        reader's values go straight into the contact code (report_code.py).
         `proximity_timeout`: for tablets that report no in-range state, the
         pen counts as gone this many seconds after its last report (see `idle`);
         fixed here (the generated feed keeps report times only when it is set).
@@ -66,13 +70,11 @@ class ReportStream:
 
             fixup = FIXUPS[entry.report_fixup]
         if fixup is None and entry is not None and entry.family and entry.geometry:
-            from stiction.drivers.hid.families import fixup as family_fixup
-
-            fixup = family_fixup(entry.family, entry.geometry)
-            from stiction.drivers.hid.families import NO_IN_RANGE
+            fixup = FamilyFixup(entry.family, entry.geometry)
+        if isinstance(fixup, FamilyFixup) and fixup.family in NO_IN_RANGE:
             from stiction.drivers.hid.uclogic import PROXIMITY_TIMEOUT_S
 
-            if proximity_timeout is None and entry.family in NO_IN_RANGE:
+            if proximity_timeout is None:
                 proximity_timeout = PROXIMITY_TIMEOUT_S  # no in-range bit: see `idle`
         self.fixup = fixup
         self.proximity_timeout = proximity_timeout
@@ -122,24 +124,17 @@ class ReportStream:
             fn = compile_report(m, active, last, self._counts)
             if fn is not None:
                 self._compiled[rid] = (fn, m.decoder.byte_size)
-        self.feed: ReportFn = compile_feed(
-            self,
-            self.mappings,
-            self.numbered,
-            self.fixup,
-            active,
-            last,
-            self._counts,
-            frozenset(self.known_ids - set(self.mappings)),
-            timed=proximity_timeout is not None,
-        )
+        self.family = self.fixup if isinstance(self.fixup, FamilyFixup) else None
+        """The vendor family whose reader the generated feed calls, None for other devices."""
+        self.feed: ReportFn = self._compile(direct=True)
         """The samples of one report received at `t`; a bad report is counted, never raised.
 
         One generated function per device (report_code.compile_feed): the
         counting, the fix-up and each contact report ID's path (ContactTracker's
-        work with the layout's answers written in) in one call. Everything
-        else, and finger reports with a Contact Count, goes through `_rest`
-        and ContactTracker; `_feed` is the same as a method.
+        work with the layout's answers written in) in one call; for a vendor
+        family, its reader's values without a normalised report in between.
+        Everything else, and finger reports with a Contact Count, goes
+        through `_rest` and ContactTracker; `_feed` is the same as a method.
         """
         # The surface is that of the device's kind: a node with a pen and a
         # touch screen is a pen (device_kind), so its size is the pen's, even
@@ -171,6 +166,30 @@ class ReportStream:
         if self._counts[what] <= self.LOG_FIRST:
             log.warning("%s: %s (skipped)", self.device, message)
         return []
+
+    def _compile(self, direct: bool) -> ReportFn:
+        """This stream's generated feed; `direct`: a family's reader values without its bytes."""
+        return compile_feed(
+            self,
+            self.mappings,
+            self.numbered,
+            self.fixup,
+            self.tracker.active,
+            self.tracker.last,
+            self._counts,
+            frozenset(self.known_ids - set(self.mappings)),
+            timed=self.proximity_timeout is not None,
+            family=self.family if direct else None,
+        )
+
+    def use_bytes_path(self) -> None:
+        """A vendor family's reports through its fix-up's normalised bytes, then the generated feed.
+
+        The family path before the generated feed took the reader's values
+        directly: the oracle of tests/hid/test_hid_family_path.py and the
+        comparison `stiction bench hid` prints. Other devices keep their feed.
+        """
+        self.feed = self._compile(direct=False)
 
     def use_tracker(self) -> None:
         """Send every report through ContactTracker, as before report_code.py.
