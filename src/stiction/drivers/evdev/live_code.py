@@ -57,7 +57,7 @@ from stiction.drivers.evdev.live_mt_code import (
     READ_START,
     TOOK_ONE,
 )
-from stiction.drivers.evdev.live_pen_sample import derived_fields, sample_code
+from stiction.drivers.evdev.live_pen_sample import derived_fields, sample_code, tip_expression
 from stiction.drivers.evdev.live_shapes import MISS, UNPACKERS, Book, Shapes
 from stiction.drivers.evdev.single_code import sorted_codes
 from stiction.drivers.evdev.units import SurfaceUnits
@@ -219,12 +219,7 @@ def source(asm: FrameAssembler, units: SurfaceUnits) -> str:
             body += "                seen = True\n"
         branches.append(f"            {'if' if i == 0 else 'elif'} code == {c}:\n{body}")
     branches.append("            else:\n                odd = (*(odd or ()), 'unknown_code')\n")
-    if asm._has_touch_key:
-        tip = "key_touch"
-    elif asm._has_pressure:
-        tip = f"c{p} > {asm._pressure_min!r}"
-    else:
-        tip = "False"
+    tip = tip_expression(asm)
     last_contact = (
         f"(0, None, None, last_tool, {f'c{x}' if x in asm._abs else '0'}, "
         f"{f'c{y}' if y in asm._abs else '0'}, {f'c{p}' if asm._has_pressure else 'None'}, "

@@ -16,6 +16,16 @@ from stiction.drivers.evdev.live_mt_code import COLLECT, minus
 from stiction.drivers.evdev.units import SurfaceUnits
 
 
+def tip_expression(asm: FrameAssembler) -> str:
+    """The contact's tip as an expression of the reader's cells: BTN_TOUCH where the
+    device has it, else pressure above the assembler's threshold, else never."""
+    if asm._has_touch_key:
+        return "key_touch"
+    if asm._has_pressure:
+        return f"c{ecodes.ABS_PRESSURE} > {asm._pressure_min!r}"
+    return "False"
+
+
 def sample_code(
     units: SurfaceUnits,
     asm: FrameAssembler,
@@ -33,12 +43,7 @@ def sample_code(
     rx, ry = units._rx, units._ry
     xv = f"c{x}" if x in asm._abs else "0"
     yv = f"c{y}" if y in asm._abs else "0"
-    if asm._has_touch_key:
-        tip = "key_touch"
-    elif asm._has_pressure:
-        tip = f"c{p} > {asm._pressure_min!r}"
-    else:
-        tip = "False"
+    tip = tip_expression(asm)
     lines = [
         "s = blank()",
         f"s.t = {stamp}",

@@ -71,6 +71,19 @@ def _pen_sample(units: SurfaceUnits, asm: FrameAssembler, changed: set[int]) -> 
     return "".join(f"{line}\n" for line in lines)
 
 
+def _take_or_miss(targets: list[str], misses: list[str]) -> list[str]:
+    """A shape function's first lines: the read's values out of `tup`, then `miss`
+    (nothing changed yet) if any of the `misses` conditions holds."""
+    return [
+        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
+        "if (",
+        *(f"    {m} or" for m in misses[:-1]),
+        f"    {misses[-1]}",
+        "):",
+        "    return miss",
+    ]
+
+
 def pen_body(asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int]]) -> str | None:
     """A pen's shape function (live_shapes.py): the read `shape` and a final SYN_REPORT.
 
@@ -105,12 +118,7 @@ def pen_body(asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, in
     if not asm._has_tool_keys and not has_position:
         misses.append("not seen")  # the contact may end: the loop's
     lines = [
-        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
-        "if (",
-        *(f"    {m} or" for m in misses[:-1]),
-        f"    {misses[-1]}",
-        "):",
-        "    return miss",
+        *_take_or_miss(targets, misses),
         *range_lines(checks),
         *assign,
     ]
@@ -193,12 +201,7 @@ def mt_body(asm: FrameAssembler, units: SurfaceUnits, shape: list[tuple[int, int
         + textwrap.dedent(each)
     )
     lines = [
-        f"{', '.join([*targets, 'sec', 'usec', 'last'])} = tup",
-        "if (",
-        *(f"    {m} or" for m in misses[:-1]),
-        f"    {misses[-1]}",
-        "):",
-        "    return miss",
+        *_take_or_miss(targets, misses),
         *range_lines(checks),
         *stores,
         "asm._frames += 1",
