@@ -49,14 +49,14 @@ def test_many_shapes_stay_bounded_and_equal(monkeypatch: pytest.MonkeyPatch) -> 
     events, cuts = _many_shapes(60, 1)
     assert same_both_ways(DESCS["pen"], events, cuts) >= 60
     (book,) = live_code.BOOKS.values()
-    assert book.compiled == 20  # then no more compiled ...
+    assert len(book.compiled_items) == 20  # then no more compiled ...
     assert len(book.sources) == 20 and len(book.codes) <= 30  # ... nor remembered
     shaped, reads = SHAPED
     assert 0 < shaped < reads  # the first shapes compiled; past the cap the loop took them
     # a second reader of the kind takes the compiled shapes at once, and no more
     again, again_cuts = _many_shapes(60, 1)
     same_both_ways(DESCS["pen"], again, again_cuts)
-    assert book.compiled == 20
+    assert len(book.compiled_items) == 20
     assert SHAPED[0] >= 20
 
 
@@ -95,7 +95,7 @@ def test_a_reader_remembers_a_bounded_number_of_keys(monkeypatch: pytest.MonkeyP
     assert known and all(len(s.known) <= 10 for s in known)
     # once full, a reader stops asking: 10 keys learnt, one refused, then none asked
     assert len(asked) == 11 * len(known)
-    assert all(len(b.codes) <= 10 and b.compiled == 0 for b in live_code.BOOKS.values())
+    assert all(len(b.codes) <= 10 and not b.compiled_items for b in live_code.BOOKS.values())
     assert SHAPED[0] == 0
 
 

@@ -141,7 +141,6 @@ class Book:
         self.codes: dict[tuple[int, ...], types.CodeType | None] = {}
         #: (key, code) of every compiled shape: what a new reader binds at once
         self.compiled_items: list[tuple[tuple[int, ...], types.CodeType]] = []
-        self.compiled = 0
         #: the source of every compiled shape, for reading what runs
         self.sources: dict[tuple[int, ...], str] = {}
 
@@ -149,12 +148,11 @@ class Book:
         """The shape's compiled code, or None (not covered, or the cap reached)."""
         if key in self.codes:
             return self.codes[key]
-        if self.compiled >= MAX_COMPILED or len(self.codes) >= MAX_KNOWN:
+        if len(self.compiled_items) >= MAX_COMPILED or len(self.codes) >= MAX_KNOWN:
             return None  # not remembered either: the dict stays bounded
         body = self.writer(shape_of(key))
         code = None
         if body is not None:
-            self.compiled += 1
             code = self._compile(body, key)
             self.sources[key] = body
             self.compiled_items.append((key, code))
