@@ -82,6 +82,7 @@ class ReportStream:
         self.device = device
         pen_reports = entry.pen_reports if entry else frozenset()
         aliases = entry.usage_aliases if entry else None
+        kind = device_kind(desc, pen_reports)
         self.size_from = "given" if size_m is not None else "descriptor"
         """Where the surface size came from: "given" (the caller's), "catalogue", "descriptor"."""
         if size_m is None and entry is not None and entry.geometry is not None:
@@ -89,7 +90,7 @@ class ReportStream:
         if size_m is None and entry is not None and entry.size_m is not None:
             if entry.size_over_descriptor:
                 size_m, self.size_from = entry.size_m, "catalogue"
-            elif device_kind(desc, pen_reports) == "pen":
+            elif kind == "pen":
                 # A generated (OpenTabletDriver) size only fills in for a
                 # descriptor that gives none: the descriptor is this unit's own
                 # statement, the catalogue a model's that may share its id. It
@@ -110,7 +111,7 @@ class ReportStream:
             )
         self.numbered = desc.numbered
         self.known_ids = set(desc.input_reports)
-        self.kind = device_kind(desc, pen_reports)
+        self.kind = kind
         self._counts: Counter[str] = Counter()
         self._fed = 0
         self._made = 0
