@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import math
+from concurrent.futures import ThreadPoolExecutor
 
 import msgpack
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from stiction import protocol
 from stiction.errors import ProtocolError
@@ -121,3 +124,41 @@ def test_every_reply_builder_starts_with_version_and_ok_and_parses() -> None:
     with pytest.raises(ProtocolError, match=r"^boom$"):
         protocol.parse_reply(protocol.encode(protocol.error_message("boom")))
     assert protocol.error_reply("boom") == protocol.encode(protocol.error_message("boom"))
+
+
+_leaf = st.one_of(
+    st.none(),
+    st.booleans(),
+    st.integers(min_value=-(2**63), max_value=2**64 - 1),
+    st.floats(allow_nan=False),
+    st.text(max_size=20),
+    st.binary(max_size=20),
+)
+_values = st.recursive(
+    _leaf,
+    lambda kids: (
+        st.lists(kids, max_size=4) | st.dictionaries(st.text(max_size=8), kids, max_size=4)
+    ),
+    max_leaves=30,
+)
+
+
+@given(st.dictionaries(st.text(max_size=8), _values, max_size=6))
+def test_encode_is_msgpack_packb_byte_for_byte(message: dict[str, object]) -> None:
+    # encode keeps one Packer per thread; what it returns must not depend on that
+    assert protocol.encode(message) == msgpack.packb(message, use_bin_type=True)
+
+
+def test_a_message_that_fails_to_encode_leaves_nothing_in_the_kept_packer() -> None:
+    good = {"v": 1, "op": "ping"}
+    for bad in ({"v": 1, "x": object()}, {"v": 1, "x": 2**70}, {"v": 1, "x": [1, {2, 3}]}):
+        with pytest.raises(ProtocolError, match="cannot encode"):
+            protocol.encode(bad)
+        assert protocol.encode(good) == msgpack.packb(good, use_bin_type=True)
+
+
+def test_encode_from_many_threads_at_once_gives_each_its_own_bytes() -> None:
+    messages = [{"v": 1, "n": n, "pad": "x" * (n % 50)} for n in range(400)]
+    with ThreadPoolExecutor(max_workers=8) as pool:
+        got = list(pool.map(protocol.encode, messages))
+    assert got == [msgpack.packb(m, use_bin_type=True) for m in messages]
