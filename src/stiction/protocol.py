@@ -140,10 +140,10 @@ class _Packers(threading.local):
     256 KiB buffer: glibc serves that with mmap and frees it with munmap,
     so every frame cost a fresh mapping, its page faults and, in a process
     with threads on other CPUs, a TLB shoot-down. A kept Packer reuses one
-    buffer (a Packer is not thread-safe, hence one per thread). Packing a
-    frame right after a 5 ms sleep took 38 us (p50) with packb and 20 with a
-    kept Packer on the development VM; bench/results/daemon.txt measures it
-    in each run ("encoding a frame after a sleep")."""
+    buffer (a Packer is not thread-safe, hence one per thread).
+    `stiction bench daemon` times both ways, interleaved, on a frame packed
+    right after a 5 ms sleep as a tick packs it ("encoding a frame"
+    in bench/results/daemon.txt)."""
 
     def __init__(self) -> None:
         # autoreset (the default): pack() returns the bytes and empties the

@@ -54,7 +54,7 @@ import threading
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
-from typing import Any
+from typing import Any, cast
 
 import numpy as np
 
@@ -143,16 +143,21 @@ def _latency(samples: list[tuple[float, float]], start: float) -> dict[str, floa
 
 def bare_loop(
     seconds: float, rate: float, sock: Any = None, start: float | None = None
-) -> tuple[np.ndarray, int, float, float, np.ndarray]:
+) -> tuple[np.ndarray, int, float, float, np.ndarray, np.ndarray]:
     """Sleep to absolute deadlines; optionally publish one message per tick.
 
     Returns the lateness of each tick, the late count, CPU %, the grid's
-    start, and each tick's run-queue wait (see _watch_run_queue; empty
-    where /proc/thread-self/schedstat is unavailable)."""
+    start, each tick's run-queue wait (see _watch_run_queue; empty where
+    /proc/thread-self/schedstat is unavailable) and, when it publishes,
+    each tick's work: from waking to the send's return, wall clock and the
+    thread's CPU time (seconds, shape (ticks, 2); empty without a socket).
+    That is the naive loop's side of the daemon's "tick work": encoding
+    with msgpack.packb and sending, with nothing prepared."""
     import msgpack
 
     n_ticks = round(seconds * rate)
     jitter = np.empty(n_ticks)
+    work = np.zeros((n_ticks if sock is not None else 0, 2))
     late = 0
     threshold = 0.5 / rate
     start = time.monotonic() + 0.05 if start is None else start
@@ -171,21 +176,65 @@ def bare_loop(
         if remaining > 0:
             time.sleep(remaining)
         woke = time.monotonic()
+        woke_cpu = time.thread_time()
         jitter[n] = woke - deadline
         if woke - deadline > threshold:
             late += 1
         if sock is not None:
             msg = {"v": 1, "kind": "bare", "tick": n, "t": deadline, "device": "bare",
-                   "contacts": [{"id": 0, "phase": "slip", "touch_m": [0.1, 0.1],
-                                 "pointer_m": [0.1, 0.1], "touch_px": [1.0, 1.0],
-                                 "pointer_px": [1.0, 1.0], "tension": 0.0, "material": "m",
-                                 "string": {"length_px": 0.0, "dir": [0.0, 0.0]}}]}  # fmt: skip
+                   "contacts": [dict(CONTACT)]}  # fmt: skip
             sock.send_multipart((b"frame.bare", msgpack.packb(msg)))
+            work[n] = (time.monotonic() - woke, time.thread_time() - woke_cpu)
     cpu = time.process_time() - cpu0
     wall = time.monotonic() - start
     if fd is not None:
         os.close(fd)
-    return jitter, late, cpu / wall * 100, start, waits
+    return jitter, late, cpu / wall * 100, start, waits, work
+
+
+CONTACT: dict[str, Any] = {"id": 0, "phase": "slip", "touch_m": [0.1, 0.1],
+                           "pointer_m": [0.1, 0.1], "touch_px": [1.0, 1.0],
+                           "pointer_px": [1.0, 1.0], "tension": 0.0, "material": "m",
+                           "string": {"length_px": 0.0, "dir": [0.0, 0.0]}}  # fmt: skip
+"""One contact as a frame carries it (the bare loop's message, the encoding's)."""
+
+ENCODE_SLEEP_S = 0.005
+ENCODE_ROUNDS = 400
+
+
+def encode_after_sleep(
+    rounds: int = ENCODE_ROUNDS, sleep_s: float = ENCODE_SLEEP_S
+) -> dict[str, float]:
+    """Encoding a one-contact frame right after a sleep, as a tick does:
+    stiction.protocol.encode (one kept Packer per thread) against the naive
+    msgpack.packb (a new Packer, and its 256 KiB buffer, per message),
+    interleaved call by call. Returns p50 and p99 of each in microseconds
+    and the ratio of the p50s (packb / encode). Both give the same bytes."""
+    import msgpack
+
+    from stiction import protocol
+
+    frame = protocol.frame(1, 0, 1.0, 0.99, "bench", [cast(Any, dict(CONTACT))])
+    if protocol.encode(frame) != msgpack.packb(frame, use_bin_type=True):
+        raise AssertionError("protocol.encode and msgpack.packb disagree")
+    ways: dict[str, Callable[[], object]] = {
+        "packb": lambda: msgpack.packb(frame, use_bin_type=True),
+        "encode": lambda: protocol.encode(frame),
+    }
+    took: dict[str, list[float]] = {k: [] for k in ways}
+    clock = time.perf_counter
+    for _ in range(rounds):
+        for name, call in ways.items():
+            time.sleep(sleep_s)
+            t0 = clock()
+            call()
+            took[name].append(clock() - t0)
+    out: dict[str, float] = {"sleep_ms": sleep_s * 1e3, "rounds": rounds}
+    for name, xs in took.items():
+        p50, p99 = np.percentile(np.asarray(xs) * 1e6, [50, 99])
+        out[f"{name}_p50_us"], out[f"{name}_p99_us"] = float(p50), float(p99)
+    out["packb_over_encode"] = out["packb_p50_us"] / out["encode_p50_us"]
+    return out
 
 
 def _schedstat_fd() -> int | None:
@@ -224,9 +273,10 @@ def _bare_child(argv: list[str]) -> None:
         sock.bind(endpoint)
     print("ready", flush=True)
     start = float(sys.stdin.readline())  # go: deadline 0 of the shared grid
-    jitter, late, cpu, start, waits = bare_loop(seconds, rate, sock, start)
+    jitter, late, cpu, start, waits, work = bare_loop(seconds, rate, sock, start)
     np.save(out + ".npy", jitter)
     np.save(out + "-waits.npy", waits)
+    np.save(out + "-work.npy", work)
     Path(out + ".json").write_text(json.dumps({"late": late, "cpu_pct": cpu, "start": start}))
     if sock is not None and ctx is not None:
         sock.close(0)
@@ -254,11 +304,12 @@ class BareProcess:
         self.proc.stdin.write(f"{start!r}\n")
         self.proc.stdin.flush()
 
-    def result(self) -> tuple[np.ndarray, int, float, float, np.ndarray]:
+    def result(self) -> tuple[np.ndarray, int, float, float, np.ndarray, np.ndarray]:
         self.proc.wait()
         info = json.loads(Path(self.out + ".json").read_text())
         jitter, waits = np.load(self.out + ".npy"), np.load(self.out + "-waits.npy")
-        return jitter, info["late"], info["cpu_pct"], info["start"], waits
+        work = np.load(self.out + "-work.npy")
+        return jitter, info["late"], info["cpu_pct"], info["start"], waits, work
 
 
 class _Idle:
@@ -803,6 +854,9 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
     env = {**os.environ, "NUMBA_CACHE_DIR": cache}
     subprocess.run([sys.executable, "-c", fill], env=env, check=True, timeout=900)
     res["first_frame_s"] = {"cold": cold, "warm": first_frame(tmp, cache)}
+    print("encoding a frame after a sleep, protocol.encode against msgpack.packb ...",
+          file=sys.stderr)  # fmt: skip
+    res["encode_after_sleep"] = encode_after_sleep()
     pub, ctl = f"ipc://{tmp}/pub", f"ipc://{tmp}/ctl"
     raw_endpoint = f"ipc://{tmp}/raw"
     daemon_args = (args.seconds, args.rate, pub, ctl, args.device)
@@ -881,6 +935,9 @@ def _measure(args: argparse.Namespace, tmp: str) -> int:
         "cpu_pct": raw[2],
         "late_waiting_for_cpu": _waiting_for_cpu(raw[0], raw[4], threshold),
         "latency_ms": _latency(raw_got, raw[3] + 0.5),
+        # its own tick work, waking to the send's return (bare_loop)
+        "tick_cost_ms": _summary(raw[5][:, 0] * 1e3),
+        "tick_cpu_ms": _summary(raw[5][:, 1] * 1e3),
     }
     res["daemon"] = {
         "jitter_ms": _summary(jit * 1e3),
@@ -1094,16 +1151,18 @@ def _table(res: dict[str, Any]) -> str:
         f"{'input->publish p50/p99 (ms)':<34}{'':>24}"
         f"{_f(ip['p50'], '.2f') + '/' + _f(ip['p99'], '.2f'):>12}"
     )
-    tc = d["tick_cost_ms"]
+
+    def pair(x: dict[str, Any] | None) -> str:
+        return "" if not x else _f(x["p50"], ".3f") + "/" + _f(x["p99"], ".3f")
+
     lines.append(
-        f"{'tick work p50/p99 (ms), live':<34}{'':>24}"
-        f"{_f(tc['p50'], '.3f') + '/' + _f(tc['p99'], '.3f'):>12}"
+        f"{'tick work p50/p99 (ms), live':<34}{'':>12}"
+        f"{pair(r.get('tick_cost_ms')):>12}{pair(d['tick_cost_ms']):>12}"
     )
-    tcpu = d.get("tick_cpu_ms")
-    if tcpu:
+    if d.get("tick_cpu_ms"):
         lines.append(
-            f"{'  ... its CPU time (loop thread)':<34}{'':>24}"
-            f"{_f(tcpu['p50'], '.3f') + '/' + _f(tcpu['p99'], '.3f'):>12}"
+            f"{'  ... its CPU time (loop thread)':<34}{'':>12}"
+            f"{pair(r.get('tick_cpu_ms')):>12}{pair(d['tick_cpu_ms']):>12}"
         )
     warm = d.get("warm_pass_ms")
     skipped = d.get("warm_skipped")
@@ -1141,6 +1200,14 @@ def _table(res: dict[str, Any]) -> str:
                 f"{head:<34}{sum(got.values()):>6}: "
                 + ", ".join(f"{c} {k}" for c, k in got.items() if k)
             )
+    enc = res.get("encode_after_sleep")
+    if enc:
+        lines.append(
+            f"encoding a frame {enc['sleep_ms']:g} ms after a sleep, p50/p99 (us): "
+            f"msgpack.packb {enc['packb_p50_us']:.1f}/{enc['packb_p99_us']:.1f}, "
+            f"protocol.encode {enc['encode_p50_us']:.1f}/{enc['encode_p99_us']:.1f} "
+            f"({enc['packb_over_encode']:.2f}x)"
+        )
     threads = d.get("cpu_by_thread_pct") or {}
     if threads:
         parts = ", ".join(f"{name} {pct:.2f}" for name, pct in threads.items() if pct >= 0.005)
@@ -1185,6 +1252,10 @@ def _table(res: dict[str, Any]) -> str:
                      f"{_f(t['tick_cpu_p99_ms'], '.3f')} ms -> "
                      f"{'met' if t['tick_cpu_p99_within_0.1ms'] else 'NOT met'}"
                      " (the tick's work without its preemptions)")  # fmt: skip
+    rc = r.get("tick_cost_ms")
+    if rc and rc.get("p99") and t.get("tick_work_p99_ms"):
+        lines.append(f"  ... raw pyzmq's own (packb + send) p99 .... {rc['p99']:.3f} ms; "
+                     f"stictiond's is {t['tick_work_p99_ms'] / rc['p99']:.2f}x it")  # fmt: skip
     if "late_no_more_than_bare" in t:
         met = "met" if t["late_no_more_than_bare"] else "NOT met"
         lines.append(f"  late ticks <= the bare loop's ............. {d['late']} against "
