@@ -111,3 +111,10 @@ def test_encoding_after_a_sleep_reports_both_ways_and_their_ratio(clock: _Clock)
     assert got["packb_again_p50_us"] == pytest.approx(4.0)
     assert got["encode_again_p50_us"] == pytest.approx(2.0)
     assert got["sleep_ms"] == 5.0 and got["rounds"] == 5
+
+
+def test_late_ticks_that_cannot_be_set_beside_the_bare_loop_are_said_to_be() -> None:
+    d = {"late": 3, "late_own": [17], "late_with_bare_held_up": 1}
+    assert bench.late_split(d) == "1 with the bare loop on time, 1 not set beside it"
+    d = {"late": 2, "late_own": [17], "late_with_bare_held_up": 1}
+    assert bench.late_split(d) == "1 with the bare loop on time"
