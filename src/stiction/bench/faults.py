@@ -320,7 +320,7 @@ def run(seconds: float, tmp: Path, seed: int = 1, storm: bool = True) -> dict[st
                 time.sleep(0.1)
         accountant.stop.set()
         accountant.join(10)
-        _, bare_late, _, _, _ = bare.result()
+        bare_late = bare.result()[1]
     finally:
         if proc.poll() is None:
             proc.send_signal(signal.SIGTERM)
