@@ -35,7 +35,11 @@ Prints tick jitter (start - deadline) p50/p99/max, late ticks (> half a
 period), deadline-to-subscriber latency p50/p99/max (subscriber receipt
 time minus the frame's deadline, both CLOCK_MONOTONIC), and CPU use of each
 publishing process (subscribers excluded), with the ratios and differences
-the targets are stated in. Writes daemon.{json,txt,png} in the results
+the targets are stated in. The tick's own work, from its wake-up to the end
+of its work, is printed for the daemon and for the raw-pyzmq loop (its
+msgpack.packb and send, nothing prepared), and, before the loops run, the
+cost of encoding a frame right after a sleep with stiction.protocol.encode
+against msgpack.packb. Writes daemon.{json,txt,png} in the results
 folder (--save: bench/results/)
 (``daemon-<S>s.*`` for other durations).
 """
