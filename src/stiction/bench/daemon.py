@@ -241,9 +241,9 @@ def encode_after_sleep(
             again[name].append(clock() - t1)
     out: dict[str, float] = {"sleep_ms": sleep_s * 1e3, "rounds": rounds}
     for name, xs in took.items():
-        p50, p99 = np.percentile(np.asarray(xs) * 1e6, [50, 99])
-        out[f"{name}_p50_us"], out[f"{name}_p99_us"] = float(p50), float(p99)
-        out[f"{name}_again_p50_us"] = float(np.percentile(np.asarray(again[name]) * 1e6, 50))
+        cold, hot = _summary(np.asarray(xs) * 1e6), _summary(np.asarray(again[name]) * 1e6)
+        out[f"{name}_p50_us"], out[f"{name}_p99_us"] = cold["p50"] or 0.0, cold["p99"] or 0.0
+        out[f"{name}_again_p50_us"] = hot["p50"] or 0.0
     out["packb_over_encode"] = out["packb_p50_us"] / out["encode_p50_us"]
     return out
 
