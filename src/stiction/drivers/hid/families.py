@@ -71,6 +71,7 @@ from stiction.drivers.hid.family_types import (
     Geometry,
     PenState,
     Reader,
+    away,
     new_state,
     s8,
     u16le,
@@ -119,7 +120,7 @@ def _penpartner(geom: Geometry) -> Reader:
         p, b = s8(d[6]), d[5]
         if rid == 1:
             if not b & 0x80:
-                return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+                return away(x, y)
             return new_state(
                 PenState, (x, y, p + 127, p > -127, True, b & 0x40 != 0, False, b & 0x20 != 0, 0, 0)
             )
@@ -137,7 +138,7 @@ def _graphire(geom: Geometry) -> Reader:
         tool = (b >> 5) & 3
         x, y = u16x2(d, 2)
         if not b & 0x80:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         if tool >= 2:  # a mouse on the tablet: not a pen
             return None
         p = d[6] | ((d[7] & 0x03) << 8)
@@ -158,9 +159,7 @@ def _bpt(geom: Geometry) -> Reader:
         if b & 0x40:  # position valid
             last[0], last[1] = u16x2(d, 2)
         if not b & 0x80:  # not in range
-            return new_state(
-                PenState, (last[0], last[1], 0, False, False, False, False, False, 0, 0)
-            )
+            return away(last[0], last[1])
         x, y, eraser = last[0], last[1], b & 0x08 != 0
         if not b & 0x20:  # buttons (and pressure) not valid
             return new_state(PenState, (x, y, 0, False, True, False, False, eraser, 0, 0))
@@ -191,7 +190,7 @@ def _intuos(geom: Geometry, half: bool = False) -> Reader:
             return None
         if b & 0xFE == 0x80:  # exit proximity
             state["eraser"] = None
-            return new_state(PenState, (0, 0, 0, False, False, False, False, False, 0, 0))
+            return away(0, 0)
         eraser = state["eraser"]
         if eraser is None or (b >> 1) & 0x0F > 3:
             return None  # no tool in range yet, or a mouse/airbrush packet
@@ -210,7 +209,7 @@ def _ptu(geom: Geometry) -> Reader:
         b = d[1]
         x, y, p = u16x3(d, 2)
         if not b & 0x20:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         eraser = b & 0x04 != 0
         tip = b & (0x08 if eraser else 0x01) != 0
         return new_state(PenState, (x, y, p, tip, True, b & 0x02 != 0, b & 0x10 != 0, eraser, 0, 0))
@@ -231,7 +230,7 @@ def _pl(geom: Geometry) -> Reader:
         y = d[6] | (d[5] << 7) | ((d[4] & 0x03) << 14)
         if not d[1] & 0x40:
             tool["eraser"] = None
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         if tool["eraser"] is None:
             tool["eraser"] = bool(d[0] & 0x10 or d[4] & 0x20)
         elif tool["eraser"] and not d[4] & 0x20:

@@ -21,7 +21,7 @@
 
 from __future__ import annotations
 
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16x3
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, away, new_state, u16x3
 
 KYE_PEN_ID = 0x10
 VEIKK_PEN_IDS = (0x01, 0x02)
@@ -34,7 +34,7 @@ def _flags_reader(ids: tuple[int, ...], in_range_bit: int) -> Reader:
         b = d[1]
         x, y, p = u16x3(d, 2)
         if not b & in_range_bit:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
     return read

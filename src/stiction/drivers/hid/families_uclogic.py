@@ -43,6 +43,7 @@ from stiction.drivers.hid.family_types import (
     Geometry,
     PenState,
     Reader,
+    away,
     new_state,
     s8,
     u16le,
@@ -68,7 +69,7 @@ def _v1(d: bytes) -> PenState | None:
         return None
     x, y, p = u16x3(d, 2)
     if b & _V1_AWAY:
-        return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+        return away(x, y)
     return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
 
@@ -124,7 +125,7 @@ def xp_pen(geom: Geometry) -> Reader:
         if wide and n >= 12:
             x |= u16le(d, 10) << 16
         if not b & _UGEE_IN_RANGE:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         tip, barrel, barrel2, eraser = b & 1 != 0, b & 2 != 0, b & 4 != 0, b & _UGEE_ERASER != 0
         return new_state(
             PenState, (x, y, p & pressure_mask, tip, True, barrel, barrel2, eraser, tx, ty)

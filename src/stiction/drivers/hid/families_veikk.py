@@ -48,6 +48,7 @@ from stiction.drivers.hid.family_types import (
     Geometry,
     PenState,
     Reader,
+    away,
     new_state,
     s8x2,
     u16le,
@@ -77,7 +78,7 @@ def _reader(tilt: bool, narrow: bool = False) -> Reader:
         x, y = u16x2(d, 3) if narrow else (_u24le(d, 3), _u24le(d, 6))
         b = d[2]
         if not b & _IN_RANGE:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         p = u16le(d, at_p)
         tx, ty = s8x2(d, 11) if tilt and len(d) >= 13 else (0, 0)
         return new_state(PenState, (x, y, p, p > 0, True, b & 2 != 0, b & 4 != 0, False, tx, ty))

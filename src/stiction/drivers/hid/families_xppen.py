@@ -93,7 +93,7 @@ import dataclasses
 import struct
 
 from stiction.drivers.hid import families_uclogic as _uclogic
-from stiction.drivers.hid.family_types import Geometry, PenState, Reader, new_state, u16x3
+from stiction.drivers.hid.family_types import Geometry, PenState, Reader, away, new_state, u16x3
 
 VENDOR_ID = 0x02
 FIRMWARE_V1_ID = 0x07
@@ -128,7 +128,7 @@ def xp_pen_gen2(geom: Geometry) -> Reader:
         y |= y_high << 16
         b = d[1]
         if b == _AWAY:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         if b & 0xF0 != _GEN2_PEN:
             return None  # pad buttons, dials, battery
         p = (p & LOW14) | ((d[13] & 0x01) << 13)
@@ -156,7 +156,7 @@ def xp_pen_8(geom: Geometry) -> Reader:
             return None
         x, y, p = u16x3(d, 2)
         if b & _GONE:
-            return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+            return away(x, y)
         return new_state(PenState, (x, y, p, b & 1 != 0, True, b & 2 != 0, b & 4 != 0, False, 0, 0))
 
     return read

@@ -63,6 +63,14 @@ defaults), which costs about as much again as the rest of a short reader
 (and so does a functools.partial binding the class). The fields' types are
 checked by mypy through `Fields`."""
 
+
+def away(x: int, y: int) -> PenState:
+    """The pen out of range, last seen at (x, y): what every reader returns
+    for a report that says so (one call more than `new_state`, paid only
+    while the pen is away)."""
+    return new_state(PenState, (x, y, 0, False, False, False, False, False, 0, 0))
+
+
 u16x2 = struct.Struct("<2H").unpack_from
 """Two little-endian 16-bit values at an offset (X and Y, most layouts)."""
 u16x3 = struct.Struct("<3H").unpack_from
